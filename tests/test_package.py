@@ -1,0 +1,84 @@
+"""Package-level checks: version, subpackage docstrings and the layering of ARCHITECTURE.md."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import pkgutil
+import re
+from pathlib import Path
+
+import pytest
+
+import torchrl_auv
+
+PACKAGE_ROOT = Path(torchrl_auv.__file__).parent
+
+# Which torchrl_auv subpackages each layer may import (ARCHITECTURE.md, "Layers").
+# The four lowest layers are plain torch: they must not import torchrl either.
+ALLOWED_IMPORTS: dict[str, set[str]] = {
+    "physics": set(),
+    "estimation": {"physics"},
+    "control": {"physics"},
+    "iout": {"physics", "estimation", "control"},
+    "envs": {"physics", "estimation", "control", "iout"},
+    "modules": set(),
+    "objectives": {"modules"},
+    "advisor": {"objectives"},
+    "report": {
+        "physics",
+        "estimation",
+        "control",
+        "iout",
+        "envs",
+        "modules",
+        "objectives",
+        "advisor",
+    },
+}
+PLAIN_TORCH_LAYERS = {"physics", "estimation", "control", "iout"}
+
+
+def _subpackages() -> list[str]:
+    return sorted(m.name for m in pkgutil.iter_modules([str(PACKAGE_ROOT)]) if m.ispkg)
+
+
+def _imported_modules(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    names: set[str] = set()
+    package = ".".join(path.relative_to(PACKAGE_ROOT.parent).with_suffix("").parts)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:  # relative import: resolve against this module's package
+                base = package.rsplit(".", node.level)[0]
+                names.add(f"{base}.{node.module}" if node.module else base)
+            elif node.module:
+                names.add(node.module)
+    return names
+
+
+def test_version_is_pep440():
+    assert re.fullmatch(r"\d+\.\d+\.\d+((a|b|rc)\d+)?(\.dev\d+)?", torchrl_auv.__version__)
+
+
+def test_every_subpackage_is_a_known_layer_with_a_docstring():
+    subpackages = _subpackages()
+    assert subpackages, "the package has no subpackages"
+    for name in subpackages:
+        assert name in ALLOWED_IMPORTS, f"torchrl_auv.{name} is not a layer of ARCHITECTURE.md"
+        module = importlib.import_module(f"torchrl_auv.{name}")
+        assert module.__doc__ and len(module.__doc__.strip()) > 20, f"{name} lacks a docstring"
+
+
+@pytest.mark.parametrize("layer", _subpackages())
+def test_layer_imports_only_layers_below(layer):
+    allowed = ALLOWED_IMPORTS[layer] | {layer}
+    for path in sorted((PACKAGE_ROOT / layer).rglob("*.py")):
+        for name in _imported_modules(path):
+            parts = name.split(".")
+            if parts[0] == "torchrl_auv" and len(parts) > 1:
+                assert parts[1] in allowed, f"{path.name} imports {name}: not below {layer}"
+            if layer in PLAIN_TORCH_LAYERS:
+                assert parts[0] != "torchrl", f"{path.name} imports {name} in a plain-torch layer"
