@@ -1,0 +1,12 @@
+"""TorchRL environments and transforms: where TorchRL starts.
+
+Owns the ``EnvBase`` classes that wire physics, control, estimation and the sensor network
+together (thin by design: task logic lives in the layers below), their transforms (the
+state-action history the diffusion proposer reads), scripted experts and gymnasium ids.
+"""
+
+from __future__ import annotations
+
+from torchrl_auv.envs.history import StateActionHistory, history_key_for
+
+__all__ = ["StateActionHistory", "history_key_for"]
