@@ -554,7 +554,7 @@ def _check_inputs(tensors: dict[str, torch.Tensor], widths: dict[str, int], dt) 
     except RuntimeError as err:
         shapes = {k: tuple(t.shape) for k, t in tensors.items()}
         raise ValueError(
-            f"batch dims of eta, nu, actuators, command, current differ: {shapes}"
+            f"batch dims of eta, nu, actuators, command, current must broadcast: {shapes}"
         ) from err
     if isinstance(dt, torch.Tensor):
         if not bool((dt > 0).all()):
