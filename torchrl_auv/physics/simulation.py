@@ -1,0 +1,90 @@
+"""The vehicle in its ocean: one REMUS-100 step driven by the current at the vehicle.
+
+:func:`step_in_ocean` evaluates :func:`torchrl_auv.physics.ocean.current_at` at the vehicle's
+position and depth and passes it to :func:`torchrl_auv.physics.remus100.step`.
+:func:`compiled_step_in_ocean` fuses both through ``torch.compile``; on the 2-core development
+machine it ran 4096 vehicles (100 wave components each) in ~1.1 ms per step instead of ~6 ms,
+and one vehicle in ~55 us instead of ~500 us (``benchmarks/bench_physics.py``). Advance the
+ocean itself with :func:`torchrl_auv.physics.ocean.step_ocean` (it draws random numbers).
+"""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDict
+
+from torchrl_auv.physics import ocean, remus100
+
+__all__ = ["compiled_step_in_ocean", "step_in_ocean"]
+
+
+def _step_in_ocean(eta, nu, actuators, command, ocean_state, dt, params=None):
+    current = ocean.current_at(ocean_state, eta[..., :3])
+    return remus100.step(eta, nu, actuators, command, current, dt, params)
+
+
+def step_in_ocean(
+    eta: torch.Tensor,
+    nu: torch.Tensor,
+    actuators: torch.Tensor,
+    command: torch.Tensor,
+    ocean_state: TensorDict,
+    dt: float,
+    params: remus100.Remus100Params | None = None,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """One REMUS-100 step in the current (plus wave orbital velocity) at the vehicle.
+
+    Args:
+        eta, nu, actuators, command: as in :func:`torchrl_auv.physics.remus100.step`.
+        ocean_state: from :func:`~torchrl_auv.physics.ocean.reset_ocean` /
+            :func:`~torchrl_auv.physics.ocean.step_ocean`, batch shape ``[*B]``.
+        dt: step in seconds.
+        params: vehicle parameters (default REMUS-100).
+
+    >>> g = torch.Generator().manual_seed(0)
+    >>> sea = ocean.reset_ocean("es", (2,), generator=g)
+    >>> eta, nu, act = torch.zeros(2, 6), torch.zeros(2, 6), torch.zeros(2, 3)
+    >>> cmd = torch.tensor([[0.0, 0.0, 1525.0]] * 2)
+    >>> eta, nu, act = step_in_ocean(eta, nu, act, cmd, sea, 0.05)
+    >>> act[:, 2].tolist()
+    [76.25, 76.25]
+    """
+    return _step_in_ocean(eta, nu, actuators, command, ocean_state, dt, params)
+
+
+_COMPILED: dict[str, object] = {}
+
+
+def compiled_step_in_ocean(
+    eta: torch.Tensor,
+    nu: torch.Tensor,
+    actuators: torch.Tensor,
+    command: torch.Tensor,
+    ocean_state: TensorDict,
+    dt: float,
+    params: remus100.Remus100Params | None = None,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """:func:`step_in_ocean` through ``torch.compile`` (inputs validated eagerly first).
+
+    The first call per input shape compiles (a few seconds on a 2-core CPU).
+    """
+    remus100._check_inputs(
+        {"eta": eta, "nu": nu, "actuators": actuators, "command": command},
+        remus100._WIDTHS,
+        dt,
+    )
+    if eta.shape[:-1] != ocean_state.batch_size:
+        raise ValueError(
+            f"ocean_state batch {tuple(ocean_state.batch_size)} must equal eta's "
+            f"{tuple(eta.shape[:-1])}"
+        )
+    fn = _COMPILED.get("fn")
+    if fn is None:
+        fn = _COMPILED["fn"] = torch.compile(_compiled_body, fullgraph=True, dynamic=False)
+    return fn(eta, nu, actuators, command, ocean_state, dt, params)
+
+
+def _compiled_body(eta, nu, actuators, command, ocean_state, dt, params=None):
+    north, east = ocean._horizontal(ocean_state, eta[..., :3])
+    current = torch.stack((torch.sqrt(north * north + east * east), torch.atan2(east, north)), -1)
+    return remus100._step_unchecked(eta, nu, actuators, command, current, dt, params)
