@@ -83,8 +83,13 @@ def simulate(
     seabed_depth: float = 100.0,
     dtype: torch.dtype = torch.float32,
     record_every: int = 1,
+    observer=None,
 ) -> Trace:
-    """Run ``controller`` on the true REMUS-100 state over ``schedule`` for ``duration`` s.
+    """Run ``controller`` on the REMUS-100 over ``schedule`` for ``duration`` s.
+
+    The controller sees the true state unless an ``observer`` is given: a callable
+    ``observer(eta, nu, step_index) -> (eta_hat, nu_hat)`` called every physics step with the
+    true state (e.g. sensors plus a Kalman filter, see :mod:`torchrl_auv.report.tracking`).
 
     >>> from torchrl_auv.control import make_controller
     >>> trace = simulate(make_controller("pid"), TUNING_SCHEDULE, 2.0,
@@ -109,7 +114,8 @@ def simulate(
     times, etas, nus, sps, cmds = [0.0], [eta], [nu], [first], [torch.zeros_like(first)]
     for k in range(steps):
         setpoint = _setpoints_at(schedule, k * dt, batch_shape, dtype)
-        command, memory = controller(setpoint, eta, nu, memory, dt)
+        seen = (eta, nu) if observer is None else observer(eta, nu, k)
+        command, memory = controller(setpoint, *seen, memory, dt)
         sea_td = ocean.step_ocean(sea_td, sea, dt, generator=generator)
         eta, nu, act = step_in_ocean(eta, nu, act, command, sea_td, dt)
         eta, nu, _, _ = depth_limits(eta, nu, seabed_depth)

@@ -1,0 +1,12 @@
+"""Metrics tables, plots and the paper's experiments as functions.
+
+Owns experiment drivers that compose the layers below (e.g. the Table III tracking comparison
+of the low-level controllers behind the Kalman filter, :mod:`torchrl_auv.report.tracking`) and
+their tables and figures. Recipes call these; they hold no library logic of their own.
+"""
+
+from __future__ import annotations
+
+from torchrl_auv.report.tracking import KalmanObserver, plot_tracking, tracking_table
+
+__all__ = ["KalmanObserver", "plot_tracking", "tracking_table"]
