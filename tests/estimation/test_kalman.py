@@ -7,7 +7,7 @@ import pytest
 import torch
 from filterpy.kalman import KalmanFilter
 
-from torchrl_auv.estimation.kalman import kf_predict, kf_update
+from torchrl_auv.estimation.kalman import kf_predict, kf_update, kf_update_sequential
 
 
 def _random_spd(n, gen):
@@ -87,3 +87,31 @@ def test_bad_shapes_raise():
         kf_predict(torch.zeros(3), torch.eye(4), torch.eye(4), torch.eye(4))
     with pytest.raises(ValueError, match="measurement"):
         kf_update(torch.zeros(4), torch.eye(4), torch.zeros(2), torch.zeros(3, 4), torch.eye(3))
+
+
+def test_sequential_scalar_updates_equal_the_joint_update():
+    gen = torch.Generator().manual_seed(4)
+    batch, n = 7, 6
+    mean = torch.randn(batch, n, generator=gen, dtype=torch.float64)
+    cov = torch.stack([_random_spd(n, gen) for _ in range(batch)])
+    indices = (3, 4, 5, 2)
+    z = torch.randn(batch, 4, generator=gen, dtype=torch.float64)
+    variances = torch.rand(batch, 4, generator=gen, dtype=torch.float64) + 0.1
+    h = torch.zeros(4, n, dtype=torch.float64)
+    for row, col in enumerate(indices):
+        h[row, col] = 1.0
+    joint = kf_update(mean, cov, z, h, torch.diag_embed(variances))
+    sequential = kf_update_sequential(mean, cov, z, indices, variances)
+    torch.testing.assert_close(sequential[0], joint[0], atol=1e-10, rtol=0)
+    torch.testing.assert_close(sequential[1], joint[1], atol=1e-10, rtol=0)
+
+
+def test_shared_and_batched_transition_give_the_same_prediction():
+    gen = torch.Generator().manual_seed(6)
+    mean = torch.randn(5, 6, generator=gen, dtype=torch.float64)
+    cov = torch.stack([_random_spd(6, gen) for _ in range(5)])
+    f = torch.randn(6, 6, generator=gen, dtype=torch.float64)
+    q = _random_spd(6, gen)
+    shared = kf_predict(mean, cov, f, q)
+    batched = kf_predict(mean, cov, f.expand(5, 6, 6), q)
+    torch.testing.assert_close(shared[1], batched[1], atol=1e-10, rtol=0)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -24,7 +25,14 @@ from torchrl_auv.physics.remus100 import (
     step,
 )
 
-REFERENCE_DIR = Path(__file__).resolve().parents[3] / "shared" / "reference" / "remus100"
+# The reference trajectories live in the shared folder beside the repository (as in CI);
+# TORCHRL_AUV_REFERENCE_DIR points elsewhere.
+REFERENCE_DIR = Path(
+    os.environ.get(
+        "TORCHRL_AUV_REFERENCE_DIR",
+        Path(__file__).resolve().parents[3] / "shared" / "reference" / "remus100",
+    )
+)
 REFERENCE_FILES = sorted(REFERENCE_DIR.glob("*.csv"))
 DT = 0.05
 DEG = math.pi / 180

@@ -11,16 +11,18 @@ acceleration model,
 Every physics step the onboard sensors update it as one measurement
 :math:`z = [R(\phi, \theta, \hat\psi)\,v_{DVL};\ d]`: the DVL body velocity rotated to NED with
 the compass heading :math:`\hat\psi` (roll and pitch from the attitude sensor are taken as
-exact, ours), with covariance :math:`\sigma_{DVL}^2 I` plus the heading error's cross-track
-term :math:`(\sigma_\psi |v_h|)^2 e_\perp e_\perp^\top`, and the depth sensor. Once per decision
-a USBL fix updates the position with its range-dependent covariance; a lost fix is skipped.
+exact, ours), with diagonal covariance :math:`\sigma_{DVL}^2 I` plus the heading error's
+cross-track variance :math:`(\sigma_\psi |v_h|)^2` on both horizontal axes (conservative, and it
+keeps :math:`R` diagonal so the update is four cheap scalar updates), and the depth sensor.
+Once per decision a USBL fix updates the position with its range-dependent covariance; a lost
+fix is skipped.
 """
 
 from __future__ import annotations
 
 import torch
 
-from torchrl_auv.estimation.kalman import kf_predict, kf_update
+from torchrl_auv.estimation.kalman import kf_predict, kf_update, kf_update_sequential
 from torchrl_auv.estimation.sensors import SensorNoise
 from torchrl_auv.physics.remus100 import rotation_matrix
 
@@ -107,20 +109,18 @@ class Localiser:
     ):
         """Update with DVL body velocity ``[*B, 3]``, attitude ``[*B, 3]`` (roll, pitch, compass
         heading, rad) and a depth reading ``[*B]`` (m)."""
-        m = self._matrices(0.0, mean.dtype, mean.device)
         rot = rotation_matrix(attitude)
         v_ned = (rot @ dvl_velocity.unsqueeze(-1)).squeeze(-1)
         z = torch.cat([v_ned, depth.unsqueeze(-1)], -1)
-        heading = attitude[..., 2]
-        perp = torch.stack((-torch.sin(heading), torch.cos(heading), torch.zeros_like(heading)), -1)
-        speed_h = v_ned[..., :2].norm(dim=-1)
-        cross = (self.noise.compass * speed_h).square()[..., None, None] * (
-            perp.unsqueeze(-1) * perp.unsqueeze(-2)
-        )
-        r = torch.zeros(*mean.shape[:-1], 4, 4, dtype=mean.dtype, device=mean.device)
-        r[..., :3, :3] = self.noise.dvl**2 * torch.eye(3, dtype=mean.dtype) + cross
-        r[..., 3, 3] = max(self.noise.depth, 1e-6) ** 2
-        return kf_update(mean, cov, z, m["H_onboard"], r)
+        # the compass error adds (sigma_psi |v_h|)^2 across track; it is spread over both
+        # horizontal axes (conservative), which keeps R diagonal: four scalar updates.
+        cross = (self.noise.compass * v_ned[..., :2].norm(dim=-1)).square()
+        var_v = self.noise.dvl**2 + cross
+        variances = torch.stack(
+            (var_v, var_v, torch.full_like(var_v, self.noise.dvl**2),
+             torch.full_like(var_v, max(self.noise.depth, 1e-6) ** 2)), -1
+        )  # fmt: skip
+        return kf_update_sequential(mean, cov, z, (3, 4, 5, 2), variances)
 
     def update_usbl(
         self,
