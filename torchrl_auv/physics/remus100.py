@@ -566,6 +566,13 @@ def _check_inputs(tensors: dict[str, torch.Tensor], widths: dict[str, int], dt) 
 _WIDTHS = {"eta": 6, "nu": 6, "actuators": 3, "command": 3, "current": 2}
 
 
+def _check_step_inputs(eta, nu, actuators, command, current, dt) -> None:
+    inputs = {"eta": eta, "nu": nu, "actuators": actuators, "command": command}
+    if current is not None:
+        inputs["current"] = current
+    _check_inputs(inputs, _WIDTHS, dt)
+
+
 def step(
     eta: torch.Tensor,
     nu: torch.Tensor,
@@ -605,11 +612,7 @@ def step(
     >>> round(nu[0].item(), 3)  # steady surge speed (m/s)
     2.554
     """
-    _check_inputs(
-        {"eta": eta, "nu": nu, "actuators": actuators, "command": command, "current": current},
-        _WIDTHS,
-        dt,
-    )
+    _check_step_inputs(eta, nu, actuators, command, current, dt)
     return _step_unchecked(eta, nu, actuators, command, current, dt, params)
 
 
@@ -641,11 +644,7 @@ def compiled_step(
     step instead of ~450 us, and 4096 vehicles ~8M instead of ~2.8M vehicle-steps/s
     (``benchmarks/bench_physics.py``). Inputs are validated eagerly before the compiled call.
     """
-    _check_inputs(
-        {"eta": eta, "nu": nu, "actuators": actuators, "command": command, "current": current},
-        _WIDTHS,
-        dt,
-    )
+    _check_step_inputs(eta, nu, actuators, command, current, dt)
     fn = _COMPILED.get("step")
     if fn is None:
         fn = _COMPILED["step"] = torch.compile(_step_unchecked, fullgraph=True, dynamic=False)

@@ -68,11 +68,7 @@ def compiled_step_in_ocean(
 
     The first call per input shape compiles (a few seconds on a 2-core CPU).
     """
-    remus100._check_inputs(
-        {"eta": eta, "nu": nu, "actuators": actuators, "command": command},
-        remus100._WIDTHS,
-        dt,
-    )
+    remus100._check_step_inputs(eta, nu, actuators, command, None, dt)
     if eta.shape[:-1] != ocean_state.batch_size:
         raise ValueError(
             f"ocean_state batch {tuple(ocean_state.batch_size)} must equal eta's "
