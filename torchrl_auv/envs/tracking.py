@@ -1,0 +1,327 @@
+"""``AUVTrackingEnv``: one REMUS-100 following a random heading/depth/speed reference.
+
+The small, fast environment for unit tests, examples and the Lyapunov experiments. It wires the
+layers below together and holds no task logic of its own beyond the reward: physics
+(:mod:`torchrl_auv.physics`), a low-level controller (:mod:`torchrl_auv.control`), sensors and
+the Kalman filter (:mod:`torchrl_auv.estimation`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
+
+from torchrl_auv.control import make_controller, wrap_angle
+from torchrl_auv.estimation import Localiser, SensorNoise, compass, depth_sensor, dvl, usbl_fix
+from torchrl_auv.physics import ocean
+from torchrl_auv.physics.limits import depth_limits, diverged
+from torchrl_auv.physics.remus100 import rotation_matrix
+from torchrl_auv.physics.simulation import step_in_ocean
+
+__all__ = ["AUVTrackingEnv"]
+
+OBS_DIM = 16
+RPM_SCALE = 380.0  # rpm per unit action: n = 380 (a2 + 3), 760-1520 rpm
+DEPTH_STEP = 0.8  # m per unit action (setpoint change)
+HEADING_STEP = 0.15  # rad per unit action (setpoint change)
+
+
+def _spec_from_td(td: TensorDictBase) -> Composite:
+    return Composite(
+        {
+            key: _spec_from_td(value)
+            if isinstance(value, TensorDictBase)
+            else Unbounded(shape=value.shape, dtype=value.dtype, device=value.device)
+            for key, value in td.items()
+        },
+        shape=td.batch_size,
+    )
+
+
+class AUVTrackingEnv(EnvBase):
+    """Heading, depth and speed tracking with one REMUS-100 (env card).
+
+    **Description.** A REMUS-100 (``shared/spec/remus100.md``) must follow a reference of
+    depth, heading and surge speed that changes every ``segment_seconds`` (drawn per episode:
+    depth U(5, 30) m, heading U(-pi, pi) rad, speed U(1.2, 2.2) m/s). The agent acts once per
+    second by moving the setpoints of a low-level controller (S-Surface, PID or SMC) that runs
+    at 20 Hz, in the chosen sea state, and sees the vehicle only through its sensors and a
+    Kalman filter.
+
+    **Action** ``[*B, 3]`` in [-1, 1]:
+
+    ====  ==============================  ===================================
+    idx   meaning                         effect
+    ====  ==============================  ===================================
+    0     depth setpoint change           ``z_sp += 0.8 a0`` m (kept in [0, 100])
+    1     heading setpoint change         ``psi_sp += 0.15 a1`` rad
+    2     propeller speed                 ``n_sp = 380 (a2 + 3)`` rpm (760-1520)
+    ====  ==============================  ===================================
+
+    **Observation** ``"observation"`` ``[*B, 16]`` (float32), from the Kalman-filter estimate
+    (hats) and the AHRS, never the true pose: ``(z_ref - z^)/10``, ``sin``/``cos`` of
+    ``psi_ref - psi^``, ``u_ref - u^`` (m/s), ``u^, v^, w^`` (body, m/s), ``p, q, r`` (rad/s),
+    roll, pitch (rad), ``(z_sp - z^)/10``, ``sin``/``cos`` of ``psi_sp - psi^``, ``n_sp/1525``.
+
+    **Cost and reward.** ``cost = |wrap(psi_ref - psi)|/pi + |z_ref - z|/10 +
+    |u_ref - u|/2`` on the true state at the end of the decision (>= 0, LAC's convention);
+    ``reward = -cost``. Both ``[*B, 1]``.
+
+    **Start state.** At rest-free cruise: depth U(5, 15) m, heading U(-pi, pi), surge 1.5 m/s,
+    the setpoints on the current pose, 1200 rpm; a fresh ocean per episode.
+
+    **Episode end.** ``terminated`` when the divergence guard fires (non-finite or absurd
+    state); ``truncated`` after ``max_steps`` decisions. ``done = terminated | truncated``.
+
+    **Other keys.** ``("truth", "eta"|"nu"|"actuators")`` (true state, for metrics and plots;
+    policies must not read it), ``("kf", "mean"|"cov")``, ``"setpoint"``, ``"reference"``,
+    ``("controller", ...)``, ``"ocean"``, and ``("metrics", name)`` with the running episode
+    values of ``heading_error_mean``, ``heading_error_std`` (rad), ``depth_error_mean``,
+    ``depth_error_std`` (m), between the controller setpoints and the true state over all
+    physics steps (final when ``done``).
+
+    **Arguments.** ``batch_size``; ``sea_state`` ("ideal", "es", "ves" or a ``SeaState``);
+    ``controller`` ("s_surface", "pid", "smc"); ``seed``; ``max_steps`` (decisions, default
+    300); ``segment_seconds`` (default 60).
+
+    **Version history.** v0: first release.
+
+    Examples:
+        >>> env = AUVTrackingEnv(batch_size=[2], sea_state="es", seed=0)
+        >>> td = env.rollout(3)
+        >>> td["observation"].shape, td["next", "cost"].shape
+        (torch.Size([2, 3, 16]), torch.Size([2, 3, 1]))
+    """
+
+    batch_locked = True
+
+    def __init__(
+        self,
+        batch_size: torch.Size | list[int] | tuple[int, ...] = (),
+        *,
+        sea_state: str | ocean.SeaState = "ideal",
+        controller: str = "s_surface",
+        seed: int | None = None,
+        max_steps: int = 300,
+        segment_seconds: float = 60.0,
+        device: torch.device | str | None = None,
+    ) -> None:
+        self.sea = ocean.get_sea_state(sea_state)
+        self.controller = make_controller(controller)
+        if max_steps < 1:
+            raise ValueError(f"max_steps must be >= 1, got {max_steps}")
+        if segment_seconds <= 0:
+            raise ValueError(f"segment_seconds must be > 0, got {segment_seconds}")
+        super().__init__(batch_size=torch.Size(batch_size), device=device)
+        self.dt = 0.05
+        self.decision_steps = 20
+        self.max_steps = max_steps
+        self.segment_steps = max(1, round(segment_seconds))
+        self.num_segments = math.ceil(max_steps / self.segment_steps) + 1
+        self.noise = SensorNoise()
+        self.localiser = Localiser(self.noise)
+        self.rng = torch.Generator()
+        self.set_seed(0 if seed is None else seed)
+        self._make_specs()
+
+    # -- specs ---------------------------------------------------------------------------
+    def _make_specs(self) -> None:
+        sample = self._initial_state(self.batch_size)
+        state = sample.exclude("observation")
+        shape = self.batch_size
+        self.observation_spec = Composite(
+            observation=Unbounded(shape=(*shape, OBS_DIM), dtype=torch.float32),
+            **{
+                k: _spec_from_td(v)
+                if isinstance(v, TensorDictBase)
+                else Unbounded(shape=v.shape, dtype=v.dtype)
+                for k, v in state.items()
+            },
+            shape=shape,
+        )
+        self.state_spec = Composite(
+            {k: v.clone() for k, v in self.observation_spec.items() if k != "observation"},
+            shape=shape,
+        )
+        self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*shape, 3), dtype=torch.float32)
+        self.done_spec = Composite(
+            {k: Categorical(2, shape=(*shape, 1), dtype=torch.bool)
+             for k in ("done", "terminated", "truncated")},
+            shape=shape,
+        )  # fmt: skip
+        self.reward_spec = Composite(
+            reward=Unbounded(shape=(*shape, 1), dtype=torch.float32),
+            cost=Unbounded(shape=(*shape, 1), dtype=torch.float32),
+            shape=shape,
+        )
+
+    def _set_seed(self, seed: int | None) -> None:
+        self.rng = torch.Generator().manual_seed(int(seed) if seed is not None else 0)
+
+    # -- reset ---------------------------------------------------------------------------
+    def _initial_state(self, shape: torch.Size) -> TensorDict:
+        g, f32 = self.rng, torch.float32
+
+        def uniform(low: float, high: float, *size: int) -> torch.Tensor:
+            return low + (high - low) * torch.rand((*shape, *size), generator=g, dtype=f32)
+
+        eta = torch.zeros(*shape, 6)
+        eta[..., 2] = uniform(5.0, 15.0)
+        eta[..., 5] = uniform(-math.pi, math.pi)
+        nu = torch.zeros(*shape, 6)
+        nu[..., 0] = 1.5
+        actuators = torch.zeros(*shape, 3)
+        actuators[..., 2] = 1200.0
+        reference = torch.stack(
+            (uniform(5.0, 30.0, self.num_segments), uniform(-math.pi, math.pi, self.num_segments),
+             uniform(1.2, 2.2, self.num_segments)), -1)  # fmt: skip
+        setpoint = torch.stack((eta[..., 2], eta[..., 5], actuators[..., 2]), -1)
+        mean, cov = self.localiser.init(
+            eta[..., :3], position_sigma=1.0, velocity=torch.zeros(*shape, 3)
+        )
+        mean[..., 3] = nu[..., 0] * torch.cos(eta[..., 5])
+        mean[..., 4] = nu[..., 0] * torch.sin(eta[..., 5])
+        zero = torch.zeros(shape)
+        stats = TensorDict(
+            {k: zero.clone() for k in ("n", "heading_sum", "heading_sq", "depth_sum", "depth_sq")},
+            batch_size=shape,
+        )
+        td = TensorDict(
+            {
+                "truth": {"eta": eta, "nu": nu, "actuators": actuators},
+                "kf": {"mean": mean, "cov": cov, "heading": eta[..., 5].clone()},
+                "setpoint": setpoint,
+                "reference": reference,
+                "controller": self.controller.init_memory(shape),
+                "ocean": ocean.reset_ocean(self.sea, shape, generator=g),
+                "step_count": torch.zeros(*shape, 1, dtype=torch.int64),
+                "stats": stats,
+                "metrics": self._metrics(stats),
+            },
+            batch_size=shape,
+        )
+        td["observation"] = self._observe(td)
+        return td
+
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        return self._initial_state(self.batch_size)
+
+    # -- step ----------------------------------------------------------------------------
+    def _estimate(self, td: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
+        """The controller's and policy's view: KF position/velocity, AHRS attitude and rates."""
+        eta, nu = td["truth", "eta"], td["truth", "nu"]
+        attitude = torch.stack((eta[..., 3], eta[..., 4], td["kf", "heading"]), -1)
+        mean = td["kf", "mean"]
+        rot = rotation_matrix(attitude)
+        v_body = (rot.transpose(-1, -2) @ mean[..., 3:].unsqueeze(-1)).squeeze(-1)
+        return torch.cat([mean[..., :3], attitude], -1), torch.cat([v_body, nu[..., 3:]], -1)
+
+    def _reference_now(self, td: TensorDictBase) -> torch.Tensor:
+        segment = (td["step_count"] // self.segment_steps).clamp_max(self.num_segments - 1)
+        index = segment.unsqueeze(-1).expand(*segment.shape[:-1], 1, 3)
+        return td["reference"].gather(-2, index).squeeze(-2)
+
+    def _observe(self, td: TensorDictBase) -> torch.Tensor:
+        eta_hat, nu_hat = self._estimate(td)
+        ref = self._reference_now(td)
+        sp = td["setpoint"]
+        e_psi = ref[..., 1] - eta_hat[..., 5]
+        e_sp = sp[..., 1] - eta_hat[..., 5]
+        return torch.stack(
+            (
+                (ref[..., 0] - eta_hat[..., 2]) / 10.0, torch.sin(e_psi), torch.cos(e_psi),
+                ref[..., 2] - nu_hat[..., 0], *nu_hat.unbind(-1), eta_hat[..., 3],
+                eta_hat[..., 4], (sp[..., 0] - eta_hat[..., 2]) / 10.0, torch.sin(e_sp),
+                torch.cos(e_sp), sp[..., 2] / 1525.0,
+            ),
+            -1,
+        ).to(torch.float32)  # fmt: skip
+
+    @staticmethod
+    def _metrics(stats: TensorDictBase) -> TensorDict:
+        n = stats["n"].clamp_min(1.0)
+        h_mean, d_mean = stats["heading_sum"] / n, stats["depth_sum"] / n
+        var = lambda sq, mean: (sq / n - mean * mean).clamp_min(0.0)  # noqa: E731
+        return TensorDict(
+            {
+                "heading_error_mean": h_mean,
+                "heading_error_std": var(stats["heading_sq"], h_mean).sqrt(),
+                "depth_error_mean": d_mean,
+                "depth_error_std": var(stats["depth_sq"], d_mean).sqrt(),
+            },
+            batch_size=stats.batch_size,
+        )
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        g, dt, noise = self.rng, self.dt, self.noise
+        td = tensordict.select(*self.state_spec.keys(True, True), strict=True).clone(False)
+        action = tensordict["action"].clamp(-1.0, 1.0)
+        sp = td["setpoint"]
+        setpoint = torch.stack(
+            ((sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp(0.0, 100.0),
+             sp[..., 1] + HEADING_STEP * action[..., 1], RPM_SCALE * (action[..., 2] + 3.0)), -1
+        )  # fmt: skip
+        eta, nu, act = td["truth", "eta"], td["truth", "nu"], td["truth", "actuators"]
+        mean, cov, heading = td["kf", "mean"], td["kf", "cov"], td["kf", "heading"]
+        memory, sea_td, stats = td["controller"], td["ocean"], td["stats"].clone()
+        for _ in range(self.decision_steps):
+            td_view = TensorDict({"truth": {"eta": eta, "nu": nu},
+                                  "kf": {"mean": mean, "heading": heading}},
+                                 batch_size=td.batch_size)  # fmt: skip
+            eta_hat, nu_hat = self._estimate(td_view)
+            command, memory = self.controller(setpoint, eta_hat, nu_hat, memory, dt)
+            sea_td = ocean.step_ocean(sea_td, self.sea, dt, generator=g)
+            eta, nu, act = step_in_ocean(eta, nu, act, command, sea_td, dt)
+            eta, nu, _, _ = depth_limits(eta, nu, 200.0)
+            mean, cov = self.localiser.predict(mean, cov, dt)
+            heading = compass(eta[..., 5], noise.compass, g)
+            attitude = torch.stack((eta[..., 3], eta[..., 4], heading), -1)
+            mean, cov = self.localiser.update_onboard(
+                mean,
+                cov,
+                dvl(nu, noise.dvl, g),
+                attitude,
+                depth_sensor(eta[..., 2], noise.depth, g),
+            )
+            e_h = wrap_angle(setpoint[..., 1] - eta[..., 5]).abs()
+            e_d = (setpoint[..., 0] - eta[..., 2]).abs()
+            stats = TensorDict({
+                "n": stats["n"] + 1, "heading_sum": stats["heading_sum"] + e_h,
+                "heading_sq": stats["heading_sq"] + e_h * e_h,
+                "depth_sum": stats["depth_sum"] + e_d, "depth_sq": stats["depth_sq"] + e_d * e_d,
+            }, batch_size=td.batch_size)  # fmt: skip
+        asv = torch.cat([eta[..., :2], torch.zeros_like(eta[..., :1])], -1)
+        asv[..., 0] += 30.0  # the ASV keeps station 30 m north of the AUV
+        fix, fix_cov, valid = usbl_fix(
+            eta[..., :3], asv, self.sea.usbl_noise_fraction, self.sea.usbl_bearing_sigma, g
+        )
+        mean, cov = self.localiser.update_usbl(mean, cov, fix, fix_cov, valid)
+
+        step_count = td["step_count"] + 1
+        out = TensorDict({
+            "truth": {"eta": eta, "nu": nu, "actuators": act},
+            "kf": {"mean": mean, "cov": cov, "heading": heading},
+            "setpoint": setpoint, "reference": td["reference"], "controller": memory,
+            "ocean": sea_td, "step_count": step_count, "stats": stats,
+            "metrics": self._metrics(stats),
+        }, batch_size=td.batch_size)  # fmt: skip
+        ref = self._reference_now(out)
+        cost = (
+            wrap_angle(ref[..., 1] - eta[..., 5]).abs() / math.pi
+            + (ref[..., 0] - eta[..., 2]).abs() / 10.0
+            + (ref[..., 2] - nu[..., 0]).abs() / 2.0
+        ).unsqueeze(-1)
+        bad = diverged(eta, nu, act).unsqueeze(-1)
+        cost = torch.where(bad, torch.full_like(cost, 10.0), cost).to(torch.float32)
+        out["observation"] = torch.nan_to_num(self._observe(out), nan=0.0, posinf=0.0, neginf=0.0)
+        out["cost"] = cost
+        out["reward"] = -cost
+        truncated = step_count >= self.max_steps
+        out["terminated"] = bad
+        out["truncated"] = truncated & ~bad
+        out["done"] = bad | truncated
+        return out
