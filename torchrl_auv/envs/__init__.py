@@ -8,7 +8,15 @@ state-action history the diffusion proposer reads), scripted experts and gymnasi
 from __future__ import annotations
 
 from torchrl_auv.envs.experts import ScriptedExpert
+from torchrl_auv.envs.gym import TrackingGymEnv, register_gymnasium_ids
 from torchrl_auv.envs.history import StateActionHistory, history_key_for
 from torchrl_auv.envs.tracking import AUVTrackingEnv
 
-__all__ = ["AUVTrackingEnv", "ScriptedExpert", "StateActionHistory", "history_key_for"]
+__all__ = [
+    "AUVTrackingEnv",
+    "ScriptedExpert",
+    "StateActionHistory",
+    "TrackingGymEnv",
+    "history_key_for",
+    "register_gymnasium_ids",
+]

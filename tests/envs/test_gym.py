@@ -1,0 +1,40 @@
+"""Gymnasium ids: registered once, pass gymnasium's own env checker."""
+
+from __future__ import annotations
+
+import importlib
+
+import gymnasium
+import numpy as np
+from gymnasium.utils.env_checker import check_env
+
+import torchrl_auv.envs
+from torchrl_auv.envs.gym import register_gymnasium_ids
+
+
+def test_gymnasium_make_and_env_checker():
+    env = gymnasium.make("torchrl_auv/Tracking-v0", sea_state="es", max_steps=5)
+    check_env(env.unwrapped, skip_render_check=True)
+    env.reset(seed=3)
+    total, steps, done = 0.0, 0, False
+    while not done:
+        _, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        total += reward
+        steps += 1
+        done = terminated or truncated
+    assert steps == 5 and np.isfinite(total) and "metrics" in info and info["cost"] >= 0
+
+
+def test_same_seed_same_episode():
+    def episode(seed):
+        env = gymnasium.make("torchrl_auv/Tracking-v0", max_steps=3)
+        obs, _ = env.reset(seed=seed)
+        return [obs] + [env.step(np.zeros(3, np.float32))[0] for _ in range(3)]
+
+    assert all(np.array_equal(a, b) for a, b in zip(episode(1), episode(1), strict=True))
+
+
+def test_registration_is_idempotent():
+    register_gymnasium_ids()
+    importlib.reload(torchrl_auv.envs)
+    assert "torchrl_auv/Tracking-v0" in gymnasium.registry
