@@ -7,6 +7,7 @@ their tables and figures. Recipes call these; they hold no library logic of thei
 
 from __future__ import annotations
 
+from torchrl_auv.report.episode import plot_episode
 from torchrl_auv.report.tracking import KalmanObserver, plot_tracking, tracking_table
 
-__all__ = ["KalmanObserver", "plot_tracking", "tracking_table"]
+__all__ = ["KalmanObserver", "plot_episode", "plot_tracking", "tracking_table"]
