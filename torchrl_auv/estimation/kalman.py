@@ -140,10 +140,10 @@ def kf_update_sequential(
         s = new_cov[..., i, i] + variances[..., j]
         innovation = measurement[..., j] - new_mean[..., i]
         new_mean = new_mean + column * (innovation / s).unsqueeze(-1)
-        # Joseph form with the optimal scalar gain K = P_i / s reduces to P - P_i P_i^T / s
-        scaled = column / s.unsqueeze(-1)
-        new_cov = new_cov - scaled.unsqueeze(-1) * column.unsqueeze(-2)
-    new_cov = 0.5 * (new_cov + new_cov.transpose(-1, -2))
+        # Joseph form with the optimal scalar gain K = P_i / s reduces to P - P_i P_i^T / s;
+        # (P_i P_i^T) / s is bitwise symmetric, so P stays exactly symmetric.
+        outer = column.unsqueeze(-1) * column.unsqueeze(-2)
+        new_cov = new_cov - outer / s[..., None, None]
     if mask is not None:
         new_mean = torch.where(mask.unsqueeze(-1), new_mean, mean)
         new_cov = torch.where(mask[..., None, None], new_cov, cov)

@@ -81,6 +81,5 @@ def compiled_step_in_ocean(
 
 
 def _compiled_body(eta, nu, actuators, command, ocean_state, dt, params=None):
-    north, east = ocean._horizontal(ocean_state, eta[..., :3])
-    current = torch.stack((torch.sqrt(north * north + east * east), torch.atan2(east, north)), -1)
+    current = ocean._speed_and_direction(*ocean._horizontal(ocean_state, eta[..., :3]))
     return remus100._step_unchecked(eta, nu, actuators, command, current, dt, params)
