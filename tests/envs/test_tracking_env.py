@@ -86,3 +86,18 @@ def test_bad_input():
         AUVTrackingEnv(controller="lqr")
     with pytest.raises(ValueError, match="max_steps"):
         AUVTrackingEnv(max_steps=0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(3))
+def test_thousand_decision_episodes_in_ves_stay_finite_and_bounded(seed):
+    env = AUVTrackingEnv(batch_size=[4], sea_state="ves", seed=seed, max_steps=1000)
+    td = env.rollout(1000, break_when_any_done=False)
+    for key in td.keys(True, True):
+        value = td.get(key)
+        if value.is_floating_point():
+            assert torch.isfinite(value).all(), key
+    eta, nu = td["next", "truth", "eta"], td["next", "truth", "nu"]
+    assert (eta[..., 2] >= 0).all() and (eta[..., 4].abs() < 1.4).all()
+    assert (nu[..., :3].norm(dim=-1) < 5.0).all()
+    assert td["next", "truncated"][:, -1].all()

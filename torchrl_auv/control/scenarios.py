@@ -8,7 +8,20 @@
 * :func:`tracking_errors` gives mean and standard deviation of |heading error| (rad) and
   |depth error| (m) between setpoints and the true state over all physics steps.
 
-Controllers here see the true state; the environments feed them the Kalman-filter estimate.
+Controllers here see the true state unless an observer is passed; the environments and
+:mod:`torchrl_auv.report.tracking` feed them the Kalman-filter estimate.
+
+Documented step responses of the default gains (90 deg heading step and 2 m -> 12 m depth step
+at 1200 rpm in still water, 20 Hz; settling to within 2 deg / 0.5 m; overshoot), asserted with
+margins in ``tests/control``:
+
+==========  ================  ==================  ==============  ================
+controller  heading settling  heading overshoot   depth settling  depth overshoot
+==========  ================  ==================  ==============  ================
+s_surface   61 s              4.7 deg             64 s            0.73 m
+pid         52 s              2.8 deg             21 s            0.24 m
+smc         37 s              21 deg              24 s            0.00 m
+==========  ================  ==================  ==============  ================
 """
 
 from __future__ import annotations
