@@ -101,3 +101,10 @@ def test_thousand_decision_episodes_in_ves_stay_finite_and_bounded(seed):
     assert (eta[..., 2] >= 0).all() and (eta[..., 4].abs() < 1.4).all()
     assert (nu[..., :3].norm(dim=-1) < 5.0).all()
     assert td["next", "truncated"][:, -1].all()
+
+
+def test_constructor_seed_equals_set_seed():
+    a = AUVTrackingEnv(batch_size=[2], seed=5).reset()
+    env = AUVTrackingEnv(batch_size=[2], seed=0)
+    env.set_seed(5)
+    assert (a == env.reset()).all()

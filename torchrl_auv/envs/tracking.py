@@ -71,7 +71,7 @@ class AUVTrackingEnv(EnvBase):
     |u_ref - u|/2`` on the true state at the end of the decision (>= 0, LAC's convention);
     ``reward = -cost``. Both ``[*B, 1]``.
 
-    **Start state.** At rest-free cruise: depth U(5, 15) m, heading U(-pi, pi), surge 1.5 m/s,
+    **Start state.** Cruising: depth U(5, 15) m, heading U(-pi, pi), surge 1.5 m/s,
     the setpoints on the current pose, 1200 rpm; a fresh ocean per episode.
 
     **Episode end.** ``terminated`` when the divergence guard fires (non-finite or absurd
@@ -130,7 +130,9 @@ class AUVTrackingEnv(EnvBase):
 
     # -- specs ---------------------------------------------------------------------------
     def _make_specs(self) -> None:
+        rng_state = self.rng.get_state()  # the spec sample must not consume the seed's draws
         sample = self._initial_state(self.batch_size)
+        self.rng.set_state(rng_state)
         state = sample.exclude("observation")
         shape = self.batch_size
         self.observation_spec = Composite(
