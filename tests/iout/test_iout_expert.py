@@ -1,0 +1,139 @@
+"""Expert setpoints and a kinematic end-to-end episode (no physics)."""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from torchrl_auv.iout import (
+    ExpertConfig,
+    IoUTConfig,
+    TaskMetrics,
+    expert_setpoints,
+    gather_nodes,
+    other_positions,
+    reset_state,
+    seabed_depth,
+    step,
+)
+
+
+def test_heads_straight_for_the_target_when_alone():
+    g = torch.Generator().manual_seed(0)
+    pos = 200 * torch.rand(5, 3, 3, generator=g, dtype=torch.float64)
+    pos = pos + torch.tensor([0.0, 0.0, 0.0], dtype=torch.float64)
+    pose = torch.cat([pos, torch.zeros(5, 3, 3, dtype=torch.float64)], -1)
+    target = 200 * torch.rand(5, 3, 3, generator=g, dtype=torch.float64)
+    target[..., 2] = 50.0
+    far = torch.full((5, 3, 2, 3), 1e4, dtype=torch.float64)  # others out of the repulsion radius
+    depth, heading, rpm = expert_setpoints(pose, target, far)
+    assert depth.shape == heading.shape == rpm.shape == (5, 3)
+    for b in range(5):
+        for j in range(3):
+            dx, dy = (target[b, j, :2] - pos[b, j, :2]).tolist()
+            assert math.isclose(heading[b, j].item(), math.atan2(dy, dx), abs_tol=1e-12)
+    near = (target[..., :2] - pos[..., :2]).norm(dim=-1) < ExpertConfig().approach_radius_m
+    expected_rpm = torch.where(near, 760.0, ExpertConfig().cruise_rpm).double()
+    assert (depth == 45.0).all() and torch.equal(rpm, expected_rpm)
+    close = expert_setpoints(pose, pose[..., :3] + torch.tensor([10.0, 0.0, 40.0]), far)[2]
+    assert (close == ExpertConfig().approach_rpm).all()
+
+
+def test_repulsion_seabed_and_idle():
+    pose = torch.zeros(1, 2, 6)
+    pose[0, 1, 0] = 4.0  # AUV 1 is 4 m north of AUV 0, both heading north to far targets
+    pose[0, :, 2] = 20.0
+    pose[0, :, 5] = 0.3
+    target = torch.tensor([[[150.0, 0.0, 55.0], [150.0, 0.0, 55.0]]])
+    depth, heading, rpm = expert_setpoints(
+        pose, target, other_positions(pose[..., :3]), seabed_below=torch.tensor([[45.0, 60.0]])
+    )
+    assert depth.tolist() == [[40.0, 50.0]]  # 5 m above the seabed under it / the target
+    # AUV 0 is pushed south (away from AUV 1): a goal to the north minus a strong push
+    assert abs(heading[0, 0].item()) > math.pi / 2 and abs(heading[0, 1].item()) < 1e-6
+    depth, heading, rpm = expert_setpoints(
+        pose, target, other_positions(pose[..., :3]), has_target=torch.tensor([[False, True]])
+    )
+    assert depth[0, 0].item() == 20.0 and rpm[0, 0].item() == ExpertConfig().idle_rpm
+    assert rpm[0, 1].item() == ExpertConfig().cruise_rpm
+    lone = expert_setpoints(pose[:, :1], target[:, :1], other_positions(pose[:, :1, :3]))
+    assert lone[1].abs().item() < 1e-6  # no other AUV: straight to the target
+
+
+def kinematic_episode(cfg: IoUTConfig, batch: int, decisions: int, seed: int, speed: float = 2.0):
+    """AUVs move kinematically at ``speed`` along the expert heading, hold station in service.
+
+    Depth follows the expert's depth setpoint by at most 0.8 m per decision; an AUV without a
+    target (every node served) holds still. Returns the finalised metrics.
+    """
+    g = torch.Generator().manual_seed(seed)
+    state, pos = reset_state(cfg, (batch,), generator=g)
+    metrics = TaskMetrics(cfg)
+    acc = metrics.init((batch,))
+    psi = torch.zeros(batch, cfg.num_auvs)
+    for _ in range(decisions):
+        target = state["auvs", "target"]
+        has = target >= 0
+        pose = torch.cat([pos, torch.zeros_like(pos[..., :2]), psi[..., None]], -1)
+        bed = seabed_depth(state["terrain"], pos[..., 0], pos[..., 1], cfg)
+        depth, heading, _ = expert_setpoints(
+            pose,
+            gather_nodes(state["nodes", "position"], target),
+            other_positions(pos),
+            has_target=has,
+            seabed_below=bed,
+        )
+        move = has & ~state["auvs", "in_service"]
+        xy = speed * cfg.decision_dt_s * torch.stack((heading.cos(), heading.sin()), -1)
+        dz = (depth - pos[..., 2]).clamp(-0.8, 0.8)
+        pos = torch.where(move[..., None], pos + torch.cat([xy, dz[..., None]], -1), pos)
+        psi = torch.where(move, heading, psi)
+        v = torch.where(move, torch.full_like(psi, speed), torch.zeros_like(psi))
+        state, events = step(state, pos, cfg, generator=g)
+        acc = metrics.update(acc, events, v, torch.zeros_like(v))
+    return metrics.finalize(acc)
+
+
+def test_kinematic_episode_paper_rate_sanity():
+    cfg = IoUTConfig(rate_model="paper")
+    out = kinematic_episode(cfg, batch=8, decisions=1000, seed=0)
+    assert ((out["ssn"] >= 40) & (out["ssn"] <= cfg.num_sensors)).all()
+    assert ((out["sdr"] > 10) & (out["sdr"] < 200)).all()
+    assert torch.isfinite(out["ec"]).all() and (out["ec"] > 15).all() and (out["ec"] <= 245).all()
+    assert (out["violations"] == 0).all() and (out["collisions"] == 0).all()
+    assert (out["overflow"] > 0).all()  # served nodes keep filling and overflow
+
+
+def test_task_observation_features():
+    from torchrl_auv.iout import OBSERVATION_FEATURES, task_observation
+
+    cfg = IoUTConfig(num_auvs=3)
+    g = torch.Generator().manual_seed(5)
+    state, pos = reset_state(cfg, (2, 3), generator=g, dtype=torch.float64)
+    state, _ = step(state, pos, cfg, generator=g)
+    obs = task_observation(state, pos, cfg)
+    assert obs.shape == (2, 3, 3, len(OBSERVATION_FEATURES)) and obs.dtype == torch.float64
+    names = {name: i for i, name in enumerate(OBSERVATION_FEATURES)}
+    target = state["auvs", "target"]
+    node = gather_nodes(state["nodes", "position"], target)
+    torch.testing.assert_close(
+        obs[..., names["target_offset_x"]], (node[..., 0] - pos[..., 0]) / 200
+    )
+    torch.testing.assert_close(
+        obs[..., names["target_distance"]], (node - pos).norm(dim=-1) / cfg.area_diagonal_m
+    )
+    torch.testing.assert_close(
+        obs[..., names["target_fill"]], gather_nodes(state["nodes", "buffer"], target) / 5000
+    )
+    assert (obs[..., names["has_target"]] == 1).all()
+    assert (obs[..., names["time_fraction"]] == 1 / 1000).all()
+    gap = (pos[..., :, None, :] - pos[..., None, :, :]).norm(dim=-1) + 1e9 * torch.eye(3)
+    torch.testing.assert_close(
+        obs[..., names["nearest_auv_distance"]], (gap.amin(-1) / 50.0).clamp(max=1.0)
+    )
+    # an AUV without a target sees zeros for its target features
+    state = state.clone()
+    state["auvs", "target"] = torch.full_like(target, -1)
+    blind = task_observation(state, pos, cfg)
+    assert (blind[..., :7] == 0).all()

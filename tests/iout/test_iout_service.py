@@ -1,0 +1,117 @@
+"""Service: parked AUV hovers Q (b / C_max) / R seconds, then the node is served and emptied."""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from torchrl_auv.iout import IoUTConfig, gather_nodes, link_rate, reset_state, step
+
+
+def _gen(seed: int) -> torch.Generator:
+    return torch.Generator().manual_seed(seed)
+
+
+def _quiet_scene(cfg, fill: float, seed: int = 0):
+    """A one-AUV scene whose nodes receive no data (rate 0) and hold ``fill`` packets."""
+    state, pos = reset_state(cfg, (1,), generator=_gen(seed), dtype=torch.float64)
+    state = state.clone()
+    state["nodes", "rate"] = torch.zeros_like(state["nodes", "rate"])
+    state["nodes", "buffer"] = torch.full_like(state["nodes", "buffer"], fill)
+    return state, pos
+
+
+def test_parked_auv_completes_service_after_the_hover_time():
+    cfg = IoUTConfig(num_auvs=1, num_sensors=5)
+    fill = 2500.0
+    state, _ = _quiet_scene(cfg, fill)
+    target = state["auvs", "target"].clone()
+    node = gather_nodes(state["nodes", "position"], target)
+    parked = node - torch.tensor([6.0, 0.0, 8.0], dtype=torch.float64)  # 10 m away (3-D)
+    rate = link_rate(torch.tensor(10.0, dtype=torch.float64), cfg).item()
+    hover_s = cfg.data_volume_bits * (fill / cfg.buffer_capacity) / rate  # Q (b / C) / R
+    assert 20.0 < hover_s < 40.0  # 1 Mbit at about 31 kbit/s
+    hover_decisions = math.ceil(hover_s / cfg.decision_dt_s)
+
+    state, events = step(state, parked, cfg, generator=_gen(1))  # arrives: service starts
+    assert events["started"].item() and not events["hovering"].item()
+    assert state["auvs", "in_service"].item()
+    assert abs(state["auvs", "service_remaining"].item() - hover_s) < 1e-9
+    assert abs(state["auvs", "service_rate"].item() - rate) < 1e-6
+
+    ssn, rates = 0, []
+    for k in range(hover_decisions):
+        state, events = step(state, parked, cfg, generator=_gen(2 + k))
+        assert events["hovering"].item()
+        rates.append(events["rate"].item())
+        ssn += int(events["completed"].sum())
+        if k < hover_decisions - 1:
+            assert not events["completed"].item() and state["auvs", "in_service"].item()
+    assert events["completed"].item() and ssn == 1
+    assert rates == [rate] * hover_decisions
+    served_node = target.item()
+    assert state["nodes", "buffer"][0, served_node].item() == 0.0
+    assert state["nodes", "served"][0, served_node].item()
+    assert state["nodes", "served"].sum().item() == 1
+    assert not state["auvs", "in_service"].item()
+    new_target = state["auvs", "target"].item()
+    assert new_target not in (served_node, -1)  # heads for the next node
+
+
+def test_service_starts_only_inside_the_radius_and_empties_arrivals_too():
+    cfg = IoUTConfig(num_auvs=1, num_sensors=3)
+    state, _ = reset_state(cfg, (1,), generator=_gen(3), dtype=torch.float64)
+    node = gather_nodes(state["nodes", "position"], state["auvs", "target"])
+    far = node - torch.tensor([0.0, 0.0, 18.0], dtype=torch.float64)  # exactly 18 m: not < 18
+    state, events = step(state, far, cfg, generator=_gen(4))
+    assert not events["started"].item()
+    near = node - torch.tensor([0.0, 0.0, 17.9], dtype=torch.float64)
+    state, events = step(state, near, cfg, generator=_gen(5))
+    assert events["started"].item()
+    target = state["auvs", "target"].item()
+    completed = False
+    for k in range(200):
+        state, events = step(state, near, cfg, generator=_gen(6 + k))
+        if events["completed"].item():
+            completed = True
+            break
+        assert state["nodes", "buffer"][0, target] > 0  # arrivals keep coming while hovering
+    assert completed
+    assert state["nodes", "buffer"][0, target].item() == 0.0
+
+
+def test_empty_buffer_service_takes_one_decision():
+    cfg = IoUTConfig(num_auvs=1, num_sensors=4)
+    state, _ = _quiet_scene(cfg, 0.0)
+    node = gather_nodes(state["nodes", "position"], state["auvs", "target"])
+    state, events = step(state, node, cfg, generator=_gen(7))
+    assert events["started"].item() and state["auvs", "service_remaining"].item() == 0.0
+    state, events = step(state, node, cfg, generator=_gen(8))
+    assert events["hovering"].item() and events["completed"].item()
+
+
+def test_step_leaves_its_input_state_unchanged_and_progress_is_measured():
+    cfg = IoUTConfig()
+    state, pos = reset_state(cfg, (4,), generator=_gen(9), dtype=torch.float64)
+    snapshot = state.clone()
+    node = gather_nodes(state["nodes", "position"], state["auvs", "target"])
+    closer = pos + 0.1 * (node - pos)
+    new_state, events = step(state, closer, cfg, generator=_gen(10))
+    assert (state == snapshot).all()
+    expected = state["auvs", "target_distance"] - (node - closer).norm(dim=-1)
+    torch.testing.assert_close(events["progress"], expected)
+    assert (events["progress"] > 0).all()
+    assert (new_state["decision"] == 1).all()
+
+
+def test_sticky_targets_option_keeps_the_target():
+    cfg = IoUTConfig(retarget_every_decision=False)
+    state, pos = reset_state(cfg, (8,), generator=_gen(11))
+    first = state["auvs", "target"]
+    g = _gen(12)
+    for _ in range(5):  # drift sideways, far above the seabed nodes: no service starts
+        pos = pos + torch.tensor([3.0, -2.0, 0.1])
+        state, events = step(state, pos, cfg, generator=g)
+        assert not events["started"].any()
+    assert torch.equal(state["auvs", "target"], first)

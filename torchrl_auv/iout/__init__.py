@@ -1,0 +1,64 @@
+"""The sensor network of the data-collection task, as plain batched torch (no TorchRL import).
+
+Owns everything the multi-AUV data-collection task (``shared/spec/data_collection.md``) adds
+to the vehicles: the configuration (:class:`IoUTConfig`), the random seabed
+(:mod:`~torchrl_auv.iout.terrain`), the sensor nodes and their Poisson data arrivals
+(:mod:`~torchrl_auv.iout.nodes`), the node-to-AUV acoustic link rate
+(:mod:`~torchrl_auv.iout.link`), the target rule (:mod:`~torchrl_auv.iout.targets`), service
+and hovering with the per-decision state update (:mod:`~torchrl_auv.iout.service`),
+collisions and violations (:mod:`~torchrl_auv.iout.safety`), the agent's task features
+(:mod:`~torchrl_auv.iout.observation`), the paper's episode metrics
+(:mod:`~torchrl_auv.iout.metrics`), cost and reward (:mod:`~torchrl_auv.iout.reward`) and the
+scripted expert's setpoints (:mod:`~torchrl_auv.iout.expert`). Every function is batched over
+leading scene dims ``[*B]``, follows the dtype and device of its inputs, returns new tensors
+and TensorDicts without changing its inputs, and draws randomness only from a passed
+:class:`torch.Generator`.
+
+>>> cfg, g = IoUTConfig(), torch.Generator().manual_seed(0)
+>>> state, positions = reset_state(cfg, (4,), generator=g)
+>>> state, events = step(state, positions, cfg, generator=g)
+>>> sorted(state.keys())
+['auvs', 'decision', 'nodes', 'terrain']
+"""
+
+from __future__ import annotations
+
+from torchrl_auv.iout.config import IoUTConfig
+from torchrl_auv.iout.expert import ExpertConfig, expert_setpoints, other_positions
+from torchrl_auv.iout.link import link_rate
+from torchrl_auv.iout.metrics import METRIC_KEYS, TaskMetrics
+from torchrl_auv.iout.nodes import data_arrivals, sample_nodes
+from torchrl_auv.iout.observation import OBSERVATION_FEATURES, task_observation
+from torchrl_auv.iout.reward import CostWeights, task_cost
+from torchrl_auv.iout.safety import collision_mask, nearest_auv_distance, violation_mask
+from torchrl_auv.iout.service import reset_state, sample_auv_start, step
+from torchrl_auv.iout.targets import NO_TARGET, assign_targets, gather_nodes, priority
+from torchrl_auv.iout.terrain import make_terrain, seabed_depth
+
+__all__ = [
+    "METRIC_KEYS",
+    "NO_TARGET",
+    "OBSERVATION_FEATURES",
+    "CostWeights",
+    "ExpertConfig",
+    "IoUTConfig",
+    "TaskMetrics",
+    "assign_targets",
+    "collision_mask",
+    "data_arrivals",
+    "expert_setpoints",
+    "gather_nodes",
+    "link_rate",
+    "make_terrain",
+    "nearest_auv_distance",
+    "other_positions",
+    "priority",
+    "reset_state",
+    "sample_auv_start",
+    "sample_nodes",
+    "seabed_depth",
+    "step",
+    "task_cost",
+    "task_observation",
+    "violation_mask",
+]
