@@ -82,7 +82,7 @@ def test_history_transform_on_the_env():
 def test_bad_input():
     with pytest.raises(ValueError, match="sea_state"):
         AUVTrackingEnv(sea_state="storm")
-    with pytest.raises(ValueError, match="name"):
+    with pytest.raises(ValueError, match="controller"):
         AUVTrackingEnv(controller="lqr")
     with pytest.raises(ValueError, match="max_steps"):
         AUVTrackingEnv(max_steps=0)

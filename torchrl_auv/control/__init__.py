@@ -17,7 +17,7 @@ torch.Size([2, 3])
 
 from __future__ import annotations
 
-from torchrl_auv.control.base import Controller, make_controller, wrap_angle
+from torchrl_auv.control.base import Controller, available_controllers, make_controller, wrap_angle
 from torchrl_auv.control.pid import PIDController
 from torchrl_auv.control.s_surface import SSurfaceController
 from torchrl_auv.control.smc import SMCController
@@ -27,6 +27,7 @@ __all__ = [
     "PIDController",
     "SMCController",
     "SSurfaceController",
+    "available_controllers",
     "make_controller",
     "wrap_angle",
 ]

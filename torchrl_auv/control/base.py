@@ -137,6 +137,15 @@ def register(name: str):
     return wrap
 
 
+def available_controllers() -> tuple[str, ...]:
+    """Names accepted by :func:`make_controller`, sorted.
+
+    >>> available_controllers()
+    ('pid', 's_surface', 'smc')
+    """
+    return tuple(sorted(_REGISTRY))
+
+
 def make_controller(name: str, **gains: float) -> Controller:
     """Build a controller by name: ``"s_surface"``, ``"pid"`` or ``"smc"``; ``gains`` override
     the documented defaults.

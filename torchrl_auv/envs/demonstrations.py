@@ -1,19 +1,23 @@
 """Expert demonstrations for diffusion pretraining: state history -> action chunk.
 
-Each sample is one decision of a scripted-expert episode: the observation, the last ``L``
-(observation, action) pairs from :class:`~torchrl_auv.envs.StateActionHistory` and the chunk of
-the next ``H`` expert actions (padded with the episode's last action past its end, with a mask).
-Datasets are written with TorchRL's own storage (``TensorDictReplayBuffer`` over a
-``LazyMemmapStorage``, ``dumps``/``loads``) so they load straight back into a replay buffer.
+Each sample is one decision of one AUV in a scripted-expert episode: the observation, the last
+``L`` (observation, action) pairs from :class:`~torchrl_auv.envs.StateActionHistory` and the
+chunk of the next ``H`` expert actions of the same AUV in the same episode (padded with the
+episode's last action past its end, with a mask). The data-collection env's AUVs become
+separate samples (``agent`` says which). Datasets are written with TorchRL's own storage
+(``TensorDictReplayBuffer`` over a ``LazyMemmapStorage``, ``dumps``/``loads``) so they load
+straight back into a replay buffer.
 
 Command line::
 
     python -m torchrl_auv.envs.demonstrations --env tracking --episodes 8 --out demos/
+    python -m torchrl_auv.envs.demonstrations --env data_collection --episodes 4 --out demos_dc/
 
-Keys of a sample: ``observation`` ``[obs]``; ``("history", "observation")`` ``[L, obs]``;
-``("history", "action")`` ``[L, 3]``; ``("history", "mask")`` ``[L]``; ``action`` ``[3]``
-(the expert's action now); ``action_chunk`` ``[H, 3]``; ``action_chunk_mask`` ``[H]``;
-``episode`` and ``step`` (int64).
+Keys of a sample: ``observation`` ``[obs]`` (16 tracking, 31 data collection);
+``("history", "observation")`` ``[L, obs]``; ``("history", "action")`` ``[L, 3]``;
+``("history", "mask")`` ``[L]``; ``action`` ``[3]`` (the expert's action now);
+``action_chunk`` ``[H, 3]``; ``action_chunk_mask`` ``[H]``; ``episode`` (the env batch row),
+``agent`` and ``step`` (int64).
 """
 
 from __future__ import annotations
@@ -27,15 +31,45 @@ from pathlib import Path
 import torch
 from tensordict import TensorDict
 from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
-from torchrl.envs import TransformedEnv
+from torchrl.envs import EnvBase, TransformedEnv
 
+from torchrl_auv.envs.data_collection import DataCollectionEnv
 from torchrl_auv.envs.experts import ScriptedExpert
-from torchrl_auv.envs.history import StateActionHistory
+from torchrl_auv.envs.history import StateActionHistory, history_key_for
 from torchrl_auv.envs.tracking import AUVTrackingEnv
 
 __all__ = ["collect_demonstrations", "load_demonstrations", "save_demonstrations"]
 
-ENVS = ("tracking",)
+ENVS = ("tracking", "data_collection")
+
+
+def _make_env(env: str, episodes: int, max_steps: int, **options: object) -> EnvBase:
+    if env == "tracking":
+        return AUVTrackingEnv(batch_size=[episodes], max_steps=max_steps, **options)
+    return DataCollectionEnv(batch_size=[episodes], max_steps=max_steps, **options)
+
+
+def _chunks(actions: torch.Tensor, done: torch.Tensor, horizon: int):
+    """Action chunks ``[R, T, H, 3]`` and masks ``[R, T, H]`` that never cross an episode end.
+
+    ``actions`` ``[R, T, 3]`` and ``done`` ``[R, T]`` (``done[t]``: the episode ended after
+    action ``t``); a rollout row may hold several episodes (auto-reset).
+    """
+    rows, steps = done.shape
+    episode_of = done.long().cumsum(1) - done.long()  # episode number of each step in its row
+    t = torch.arange(steps).unsqueeze(-1) + torch.arange(horizon)  # [T, H]
+    inside = t < steps
+    t_clamped = t.clamp_max(steps - 1)
+    same = episode_of[:, t_clamped] == episode_of.unsqueeze(-1)
+    valid = inside & same  # [R, T, H], a prefix in h
+    last = torch.arange(steps).unsqueeze(-1) + valid.sum(-1, keepdim=True) - 1  # [R, T, 1]
+    index = torch.where(valid, t_clamped.expand_as(valid), last)
+    chunks = torch.gather(
+        actions.unsqueeze(1).expand(rows, steps, steps, actions.shape[-1]),
+        2,
+        index.unsqueeze(-1).expand(rows, steps, horizon, actions.shape[-1]),
+    )
+    return chunks, valid
 
 
 def collect_demonstrations(
@@ -49,7 +83,18 @@ def collect_demonstrations(
     controller: str = "s_surface",
     seed: int = 0,
 ) -> TensorDict:
-    """Roll the scripted expert out for ``episodes`` batched episodes; return ``[N]`` samples.
+    """Roll the scripted expert out in ``episodes`` parallel scenes; return a flat batch.
+
+    Args:
+        env: ``"tracking"`` or ``"data_collection"``.
+        episodes: scenes run side by side (the env batch); a scene that ends early restarts.
+        max_steps: decisions per scene.
+        horizon: chunk length ``H``.
+        history: history length ``L``.
+        sea_state, controller, seed: passed to the env.
+
+    Returns:
+        ``episodes * max_steps`` samples (times the number of AUVs), keys in the module docs.
 
     >>> data = collect_demonstrations(episodes=2, max_steps=5, horizon=4, history=3)
     >>> data["action_chunk"].shape, data["history", "observation"].shape
@@ -65,33 +110,39 @@ def collect_demonstrations(
     ):
         if value < 1:
             raise ValueError(f"{name} must be >= 1, got {value}")
-    base = AUVTrackingEnv(
-        batch_size=[episodes],
-        sea_state=sea_state,
-        controller=controller,
-        seed=seed,
-        max_steps=max_steps,
+    base = _make_env(
+        env, episodes, max_steps, sea_state=sea_state, controller=controller, seed=seed
     )
-    tenv = TransformedEnv(base, StateActionHistory(history))
+    obs_key = getattr(base, "observation_key", "observation")
+    act_key = getattr(base, "agent_action_key", "action")
+    tenv = TransformedEnv(
+        base, StateActionHistory(history, observation_key=obs_key, action_key=act_key)
+    )
     rollout = tenv.rollout(max_steps, ScriptedExpert(base), break_when_any_done=False)
-    actions = rollout["action"]  # [E, T, 3]
-    steps = actions.shape[1]
-    padded = torch.cat([actions, actions[:, -1:].expand(-1, horizon - 1, -1)], 1)
-    chunks = padded.unfold(1, horizon, 1).permute(0, 1, 3, 2)  # [E, T, H, 3]
-    t = torch.arange(steps).unsqueeze(-1) + torch.arange(horizon)
-    chunk_mask = (t < steps).expand(episodes, steps, horizon)
     data = TensorDict(
         {
-            "observation": rollout["observation"],
-            "history": rollout["history"].clone(),
-            "action": actions,
-            "action_chunk": chunks.contiguous(),
-            "action_chunk_mask": chunk_mask.contiguous(),
-            "episode": torch.arange(episodes).unsqueeze(-1).expand(episodes, steps).clone(),
-            "step": torch.arange(steps).expand(episodes, steps).clone(),
+            "observation": rollout[obs_key],
+            "history": rollout[history_key_for(obs_key)].clone(),
+            "action": rollout[act_key],
         },
-        batch_size=[episodes, steps],
+        batch_size=rollout[obs_key].shape[:-1],
     )
+    done = rollout["next", "done"].squeeze(-1)  # [E, T]
+    if data.batch_dims == 3:  # [E, T, N]: AUVs become rows of their own
+        n = data.batch_size[-1]
+        data = data.permute(0, 2, 1).contiguous().reshape(episodes * n, max_steps)
+        done = done.repeat_interleave(n, 0)
+        agent = torch.arange(n).repeat(episodes)
+    else:
+        agent = torch.zeros(episodes, dtype=torch.int64)
+    rows = data.batch_size[0]
+    chunks, chunk_mask = _chunks(data["action"], done, horizon)
+    data["action_chunk"] = chunks.contiguous()
+    data["action_chunk_mask"] = chunk_mask.contiguous()
+    episode = torch.arange(episodes).repeat_interleave(rows // episodes)
+    data["episode"] = episode.unsqueeze(-1).expand(rows, max_steps).clone()
+    data["agent"] = agent.unsqueeze(-1).expand(rows, max_steps).clone()
+    data["step"] = torch.arange(max_steps).expand(rows, max_steps).clone()
     return data.reshape(-1)
 
 
@@ -135,7 +186,8 @@ def load_demonstrations(path: str | Path) -> TensorDictReplayBuffer:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m torchrl_auv.envs.demonstrations --env tracking --episodes N --out DIR``."""
+    """``python -m torchrl_auv.envs.demonstrations --env {tracking,data_collection} --episodes N
+    --out DIR``."""
     parser = argparse.ArgumentParser(prog="python -m torchrl_auv.envs.demonstrations")
     parser.add_argument("--env", choices=ENVS, default="tracking")
     parser.add_argument("--episodes", type=int, required=True)

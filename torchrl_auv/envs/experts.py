@@ -1,4 +1,10 @@
-"""Scripted experts: simple TensorDictModule policies that read only the observation."""
+"""Scripted experts: simple TensorDictModule policies that read only the observation.
+
+For :class:`~torchrl_auv.envs.AUVTrackingEnv` the expert moves the setpoints onto the
+reference; for :class:`~torchrl_auv.envs.DataCollectionEnv` it goes to the assigned target at
+cruise rpm, descends to its depth and steers away from the nearest other AUV
+(:func:`torchrl_auv.iout.expert_setpoints`), all read back from the observation.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +13,9 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs import EnvBase
 
+from torchrl_auv import iout
+from torchrl_auv.control import wrap_angle
+from torchrl_auv.envs.data_collection import DataCollectionEnv
 from torchrl_auv.envs.tracking import DEPTH_STEP, HEADING_STEP, RPM_SCALE, AUVTrackingEnv
 from torchrl_auv.physics.remus100 import DEFAULT_PARAMS
 
@@ -17,37 +26,102 @@ _FULL_SPEED = 2.5536
 
 
 class ScriptedExpert(TensorDictModuleBase):
-    """A scripted expert policy for :class:`~torchrl_auv.envs.AUVTrackingEnv`.
+    r"""A scripted expert policy for either env; it reads only the observation.
 
-    Key contract: reads ``"observation"`` and writes ``"action"`` in [-1, 1]. It moves the depth
-    and heading setpoints onto the reference as fast as the action bounds allow and sets the
-    propeller speed for the reference speed, :math:`n = 1525\\,u_{ref}/2.55`.
+    Key contract: reads the env's observation key and writes its action key, in [-1, 1]:
+    ``"observation"`` -> ``"action"`` for :class:`~torchrl_auv.envs.AUVTrackingEnv` and
+    flat :class:`~torchrl_auv.envs.DataCollectionEnv`, ``("agents", "observation")`` ->
+    ``("agents", "action")`` for the multi-agent layout.
+
+    * Tracking: moves the depth and heading setpoints onto the reference as fast as the
+      action bounds allow and sets the propeller speed for the reference speed,
+      :math:`n = 1525\,u_{ref}/2.55`.
+    * Data collection: :func:`torchrl_auv.iout.expert_setpoints` (go to the target at cruise
+      rpm, slow down near it, travel ``standoff_m`` above it and the seabed, steer away from
+      the nearest other AUV), turned into setpoint changes. While an AUV is in service the env
+      overrides its action (it loiters).
+
+    Args:
+        env: the env the expert acts in (its layout and task configuration).
+        config: the data-collection expert's parameters (:class:`~torchrl_auv.iout.ExpertConfig`).
 
     Examples:
         >>> env = AUVTrackingEnv(batch_size=[2], seed=0)
         >>> td = env.rollout(3, ScriptedExpert(env))
         >>> bool((td["action"].abs() <= 1).all())
         True
+        >>> env = DataCollectionEnv(batch_size=[2], seed=0)
+        >>> td = env.rollout(3, ScriptedExpert(env))
+        >>> td["agents", "action"].shape
+        torch.Size([2, 3, 2, 3])
     """
 
-    def __init__(self, env: EnvBase) -> None:
+    def __init__(self, env: EnvBase, config: iout.ExpertConfig | None = None) -> None:
         super().__init__()
-        self.in_keys = ["observation"]
-        self.out_keys = ["action"]
-        if not isinstance(env, AUVTrackingEnv):
-            raise ValueError(f"env must be an AUVTrackingEnv, got {type(env).__name__}")
+        if isinstance(env, AUVTrackingEnv):
+            self.in_keys, self.out_keys = ["observation"], ["action"]
+            self._task = None
+        elif isinstance(env, DataCollectionEnv):
+            self.in_keys, self.out_keys = [env.observation_key], [env.agent_action_key]
+            self._task = env.config
+            self._num_auvs = env.num_auvs
+            self._flat = env.flatten_agents
+        else:
+            raise ValueError(
+                f"env must be an AUVTrackingEnv or a DataCollectionEnv, got {type(env).__name__}"
+            )
+        self.config = iout.ExpertConfig() if config is None else config
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
-        obs = tensordict["observation"]
-        depth_gap = 10.0 * (obs[..., 0] - obs[..., 12])  # z_ref - z_sp (m)
-        heading_gap = torch.atan2(obs[..., 1], obs[..., 2]) - torch.atan2(
-            obs[..., 13], obs[..., 14]
-        )
-        heading_gap = torch.atan2(torch.sin(heading_gap), torch.cos(heading_gap))
-        speed_ref = obs[..., 3] + obs[..., 4]
-        rpm = (DEFAULT_PARAMS.n_max * speed_ref / _FULL_SPEED).clamp(0.0, DEFAULT_PARAMS.n_max)
-        action = torch.stack(
-            (depth_gap / DEPTH_STEP, heading_gap / HEADING_STEP, rpm / RPM_SCALE - 3.0), -1
-        ).clamp(-1.0, 1.0)
-        tensordict.set("action", action.to(obs.dtype))
+        obs = tensordict[self.in_keys[0]]
+        if self._task is None:
+            action = _tracking_action(obs)
+        else:
+            if self._flat:
+                obs = obs.unflatten(-1, (self._num_auvs, -1))
+            action = _collection_action(obs, self._task, self.config)
+            if self._flat:
+                action = action.flatten(-2)
+        tensordict.set(self.out_keys[0], action.to(obs.dtype))
         return tensordict
+
+
+def _tracking_action(obs: torch.Tensor) -> torch.Tensor:
+    depth_gap = 10.0 * (obs[..., 0] - obs[..., 12])  # z_ref - z_sp (m)
+    heading_gap = torch.atan2(obs[..., 1], obs[..., 2]) - torch.atan2(obs[..., 13], obs[..., 14])
+    heading_gap = torch.atan2(torch.sin(heading_gap), torch.cos(heading_gap))
+    speed_ref = obs[..., 3] + obs[..., 4]
+    rpm = (DEFAULT_PARAMS.n_max * speed_ref / _FULL_SPEED).clamp(0.0, DEFAULT_PARAMS.n_max)
+    return torch.stack(
+        (depth_gap / DEPTH_STEP, heading_gap / HEADING_STEP, rpm / RPM_SCALE - 3.0), -1
+    ).clamp(-1.0, 1.0)
+
+
+def _collection_action(
+    obs: torch.Tensor, task: iout.IoUTConfig, config: iout.ExpertConfig
+) -> torch.Tensor:
+    """Actions ``[*B, N, 3]`` from per-AUV observations ``[*B, N, 31]`` (env card layout)."""
+    h_max = task.seabed_depth_range_m[1]
+    scale = obs.new_tensor([task.area_m[0], task.area_m[1], h_max])
+    depth = obs[..., 10] * h_max
+    heading = torch.atan2(obs[..., 25], obs[..., 26])
+    own = torch.stack((torch.zeros_like(depth), torch.zeros_like(depth), depth), -1)
+    pose = torch.cat([own, torch.zeros_like(own[..., :2]), heading[..., None]], -1)
+    target = own + obs[..., 0:3] * scale
+    alone = obs[..., 14] >= 1.0  # nearest AUV beyond 10 collision distances (or none)
+    nearest = own + obs[..., 11:14] * task.area_diagonal_m
+    nearest = torch.where(alone[..., None], own + 1e4, nearest)
+    depth_d, heading_d, rpm = iout.expert_setpoints(
+        pose,
+        target,
+        nearest[..., None, :],
+        config,
+        has_target=obs[..., 6] > 0.5,
+        seabed_below=(obs[..., 9] + obs[..., 10]) * h_max,
+    )
+    depth_sp = depth + 10.0 * obs[..., 27]
+    heading_sp = heading + torch.atan2(obs[..., 28], obs[..., 29])
+    return torch.stack(
+        ((depth_d - depth_sp) / DEPTH_STEP, wrap_angle(heading_d - heading_sp) / HEADING_STEP,
+         rpm / RPM_SCALE - 3.0), -1
+    ).clamp(-1.0, 1.0)  # fmt: skip

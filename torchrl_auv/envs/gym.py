@@ -1,9 +1,13 @@
-"""Gymnasium ids for the environments: ``gymnasium.make("torchrl_auv/Tracking-v0")``.
+"""Gymnasium ids for the environments.
 
-Importing :mod:`torchrl_auv.envs` registers the ids once (guarded against double registration).
-The gymnasium view is a single, unbatched episode on numpy arrays: observations are float32
-``Box(-inf, inf, (16,))``, actions ``Box(-1, 1, (3,))``; ``info`` carries the ``cost`` and, at
-the end of an episode, the episode metrics. For batched training use the TorchRL env directly.
+``gymnasium.make("torchrl_auv/Tracking-v0")`` and
+``gymnasium.make("torchrl_auv/DataCollection-v0")``. Importing :mod:`torchrl_auv.envs`
+registers the ids once (guarded against double registration). The gymnasium view is a
+single, unbatched episode on numpy arrays with float32 ``Box(-inf, inf)`` observations and
+``Box(-1, 1)`` actions: 16 and 3 for tracking; for data collection the flat single-agent
+layout (``flatten_agents=True``), ``31 N`` and ``3 N``, with the reward summed over the AUVs.
+``info`` carries the ``cost`` and, at the end of an episode, the episode metrics. For batched
+or multi-agent training use the TorchRL envs directly.
 """
 
 from __future__ import annotations
@@ -13,30 +17,28 @@ from typing import Any
 import gymnasium
 import numpy as np
 import torch
+from torchrl.envs import EnvBase
 
-from torchrl_auv.envs.tracking import OBS_DIM, AUVTrackingEnv
+from torchrl_auv.envs.data_collection import DataCollectionEnv
+from torchrl_auv.envs.tracking import AUVTrackingEnv
 
-__all__ = ["TrackingGymEnv", "register_gymnasium_ids"]
+__all__ = ["DataCollectionGymEnv", "TrackingGymEnv", "register_gymnasium_ids"]
 
 TRACKING_ID = "torchrl_auv/Tracking-v0"
+DATA_COLLECTION_ID = "torchrl_auv/DataCollection-v0"
 
 
-class TrackingGymEnv(gymnasium.Env):
-    """:class:`~torchrl_auv.envs.AUVTrackingEnv` behind the gymnasium API (one episode).
-
-    >>> import gymnasium
-    >>> env = gymnasium.make("torchrl_auv/Tracking-v0", sea_state="es")
-    >>> obs, info = env.reset(seed=0)
-    >>> obs.shape, obs.dtype
-    ((16,), dtype('float32'))
-    """
+class _GymView(gymnasium.Env):
+    """One unbatched TorchRL env (flat ``observation``/``action`` keys) as a gymnasium env."""
 
     metadata = {"render_modes": []}  # noqa: RUF012 - gymnasium's convention
 
-    def __init__(self, **kwargs: Any) -> None:
-        self._env = AUVTrackingEnv(batch_size=[], **kwargs)
-        self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (OBS_DIM,), np.float32)
-        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
+    def __init__(self, env: EnvBase) -> None:
+        self._env = env
+        obs_dim = env.observation_spec["observation"].shape[-1]
+        act_dim = env.full_action_spec["action"].shape[-1]
+        self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
+        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (act_dim,), np.float32)
         self._td = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -65,10 +67,44 @@ class TrackingGymEnv(gymnasium.Env):
         )
 
 
+class TrackingGymEnv(_GymView):
+    """:class:`~torchrl_auv.envs.AUVTrackingEnv` behind the gymnasium API (one episode).
+
+    >>> import gymnasium
+    >>> env = gymnasium.make("torchrl_auv/Tracking-v0", sea_state="es")
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.shape, obs.dtype
+    ((16,), dtype('float32'))
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(AUVTrackingEnv(batch_size=[], **kwargs))
+
+
+class DataCollectionGymEnv(_GymView):
+    """:class:`~torchrl_auv.envs.DataCollectionEnv` (flat layout) behind the gymnasium API.
+
+    >>> import gymnasium
+    >>> env = gymnasium.make("torchrl_auv/DataCollection-v0", num_auvs=2)
+    >>> obs, info = env.reset(seed=0)
+    >>> obs.shape, env.action_space.shape
+    ((62,), (6,))
+    """
+
+    def __init__(self, **kwargs: Any) -> None:
+        if "flatten_agents" in kwargs:
+            raise ValueError("flatten_agents is always True in the gymnasium view; do not pass it")
+        super().__init__(DataCollectionEnv(batch_size=[], flatten_agents=True, **kwargs))
+
+
 def register_gymnasium_ids() -> None:
     """Register the gymnasium ids (idempotent)."""
-    if TRACKING_ID not in gymnasium.registry:
-        gymnasium.register(id=TRACKING_ID, entry_point="torchrl_auv.envs.gym:TrackingGymEnv")
+    for env_id, entry_point in (
+        (TRACKING_ID, "torchrl_auv.envs.gym:TrackingGymEnv"),
+        (DATA_COLLECTION_ID, "torchrl_auv.envs.gym:DataCollectionGymEnv"),
+    ):
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point)
 
 
 register_gymnasium_ids()

@@ -15,12 +15,12 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from torchrl_auv.control import make_controller, wrap_angle
-from torchrl_auv.estimation import Localiser, SensorNoise, compass, depth_sensor, dvl, usbl_fix
+from torchrl_auv.control import wrap_angle
+from torchrl_auv.envs.specs import controller_from_name, unbounded_spec_like
+from torchrl_auv.envs.vehicles import VehicleStack
+from torchrl_auv.estimation import usbl_fix
 from torchrl_auv.physics import ocean
-from torchrl_auv.physics.limits import depth_limits, diverged
-from torchrl_auv.physics.remus100 import rotation_matrix
-from torchrl_auv.physics.simulation import step_in_ocean
+from torchrl_auv.physics.limits import diverged
 
 __all__ = ["AUVTrackingEnv"]
 
@@ -28,18 +28,6 @@ OBS_DIM = 16
 RPM_SCALE = 380.0  # rpm per unit action: n = 380 (a2 + 3), 760-1520 rpm
 DEPTH_STEP = 0.8  # m per unit action (setpoint change)
 HEADING_STEP = 0.15  # rad per unit action (setpoint change)
-
-
-def _spec_from_td(td: TensorDictBase) -> Composite:
-    return Composite(
-        {
-            key: _spec_from_td(value)
-            if isinstance(value, TensorDictBase)
-            else Unbounded(shape=value.shape, dtype=value.dtype, device=value.device)
-            for key, value in td.items()
-        },
-        shape=td.batch_size,
-    )
 
 
 class AUVTrackingEnv(EnvBase):
@@ -111,7 +99,7 @@ class AUVTrackingEnv(EnvBase):
         device: torch.device | str | None = None,
     ) -> None:
         self.sea = ocean.get_sea_state(sea_state)
-        self.controller = make_controller(controller)
+        self.controller = controller_from_name(controller)
         if max_steps < 1:
             raise ValueError(f"max_steps must be >= 1, got {max_steps}")
         if segment_seconds <= 0:
@@ -122,8 +110,8 @@ class AUVTrackingEnv(EnvBase):
         self.max_steps = max_steps
         self.segment_steps = max(1, round(segment_seconds))
         self.num_segments = math.ceil(max_steps / self.segment_steps) + 1
-        self.noise = SensorNoise()
-        self.localiser = Localiser(self.noise)
+        self.vehicles = VehicleStack(self.sea, self.controller, dt=self.dt)
+        self.noise, self.localiser = self.vehicles.noise, self.vehicles.localiser
         self.rng = torch.Generator()
         self.set_seed(0 if seed is None else seed)
         self._make_specs()
@@ -138,7 +126,7 @@ class AUVTrackingEnv(EnvBase):
         self.observation_spec = Composite(
             observation=Unbounded(shape=(*shape, OBS_DIM), dtype=torch.float32),
             **{
-                k: _spec_from_td(v)
+                k: unbounded_spec_like(v)
                 if isinstance(v, TensorDictBase)
                 else Unbounded(shape=v.shape, dtype=v.dtype)
                 for k, v in state.items()
@@ -182,29 +170,21 @@ class AUVTrackingEnv(EnvBase):
             (uniform(5.0, 30.0, self.num_segments), uniform(-math.pi, math.pi, self.num_segments),
              uniform(1.2, 2.2, self.num_segments)), -1)  # fmt: skip
         setpoint = torch.stack((eta[..., 2], eta[..., 5], actuators[..., 2]), -1)
-        mean, cov = self.localiser.init(
-            eta[..., :3], position_sigma=1.0, velocity=torch.zeros(*shape, 3)
-        )
-        mean[..., 3] = nu[..., 0] * torch.cos(eta[..., 5])
-        mean[..., 4] = nu[..., 0] * torch.sin(eta[..., 5])
         zero = torch.zeros(shape)
         stats = TensorDict(
             {k: zero.clone() for k in ("n", "heading_sum", "heading_sq", "depth_sum", "depth_sq")},
             batch_size=shape,
         )
-        td = TensorDict(
+        td = self.vehicles.init(eta, nu, actuators)
+        td.update(
             {
-                "truth": {"eta": eta, "nu": nu, "actuators": actuators},
-                "kf": {"mean": mean, "cov": cov, "heading": eta[..., 5].clone()},
                 "setpoint": setpoint,
                 "reference": reference,
-                "controller": self.controller.init_memory(shape),
                 "ocean": ocean.reset_ocean(self.sea, shape, generator=g),
                 "step_count": torch.zeros(*shape, 1, dtype=torch.int64),
                 "stats": stats,
                 "metrics": self._metrics(stats),
-            },
-            batch_size=shape,
+            }
         )
         td["observation"] = self._observe(td)
         return td
@@ -213,22 +193,13 @@ class AUVTrackingEnv(EnvBase):
         return self._initial_state(self.batch_size)
 
     # -- step ----------------------------------------------------------------------------
-    def _estimate(self, td: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
-        """The controller's and policy's view: KF position/velocity, AHRS attitude and rates."""
-        eta, nu = td["truth", "eta"], td["truth", "nu"]
-        attitude = torch.stack((eta[..., 3], eta[..., 4], td["kf", "heading"]), -1)
-        mean = td["kf", "mean"]
-        rot = rotation_matrix(attitude)
-        v_body = (rot.transpose(-1, -2) @ mean[..., 3:].unsqueeze(-1)).squeeze(-1)
-        return torch.cat([mean[..., :3], attitude], -1), torch.cat([v_body, nu[..., 3:]], -1)
-
     def _reference_now(self, td: TensorDictBase) -> torch.Tensor:
         segment = (td["step_count"] // self.segment_steps).clamp_max(self.num_segments - 1)
         index = segment.unsqueeze(-1).expand(*segment.shape[:-1], 1, 3)
         return td["reference"].gather(-2, index).squeeze(-2)
 
     def _observe(self, td: TensorDictBase) -> torch.Tensor:
-        eta_hat, nu_hat = self._estimate(td)
+        eta_hat, nu_hat = self.vehicles.estimate(td)
         ref = self._reference_now(td)
         sp = td["setpoint"]
         e_psi = ref[..., 1] - eta_hat[..., 5]
@@ -259,7 +230,7 @@ class AUVTrackingEnv(EnvBase):
         )
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        g, dt, noise = self.rng, self.dt, self.noise
+        g = self.rng
         td = tensordict.select(*self.state_spec.keys(True, True), strict=True).clone(False)
         action = tensordict["action"].clamp(-1.0, 1.0)
         sp = td["setpoint"]
@@ -267,35 +238,20 @@ class AUVTrackingEnv(EnvBase):
             ((sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp(0.0, 100.0),
              sp[..., 1] + HEADING_STEP * action[..., 1], RPM_SCALE * (action[..., 2] + 3.0)), -1
         )  # fmt: skip
-        eta, nu, act = td["truth", "eta"], td["truth", "nu"], td["truth", "actuators"]
-        mean, cov, heading = td["kf", "mean"], td["kf", "cov"], td["kf", "heading"]
-        memory, sea_td, stats = td["controller"], td["ocean"], td["stats"].clone()
-        for _ in range(self.decision_steps):
-            td_view = TensorDict({"truth": {"eta": eta, "nu": nu},
-                                  "kf": {"mean": mean, "heading": heading}},
-                                 batch_size=td.batch_size)  # fmt: skip
-            eta_hat, nu_hat = self._estimate(td_view)
-            command, memory = self.controller(setpoint, eta_hat, nu_hat, memory, dt)
-            sea_td = ocean.step_ocean(sea_td, self.sea, dt, generator=g)
-            eta, nu, act = step_in_ocean(eta, nu, act, command, sea_td, dt)
-            eta, nu, _, _ = depth_limits(eta, nu, 200.0)
-            mean, cov = self.localiser.predict(mean, cov, dt)
-            heading = compass(eta[..., 5], noise.compass, g)
-            attitude = torch.stack((eta[..., 3], eta[..., 4], heading), -1)
-            mean, cov = self.localiser.update_onboard(
-                mean,
-                cov,
-                dvl(nu, noise.dvl, g),
-                attitude,
-                depth_sensor(eta[..., 2], noise.depth, g),
-            )
-            e_h = wrap_angle(setpoint[..., 1] - eta[..., 5]).abs()
-            e_d = (setpoint[..., 0] - eta[..., 2]).abs()
-            stats = TensorDict({
-                "n": stats["n"] + 1, "heading_sum": stats["heading_sum"] + e_h,
-                "heading_sq": stats["heading_sq"] + e_h * e_h,
-                "depth_sum": stats["depth_sum"] + e_d, "depth_sq": stats["depth_sq"] + e_d * e_d,
-            }, batch_size=td.batch_size)  # fmt: skip
+        vehicles, sea_td, decision = self.vehicles.decide(
+            td.select("truth", "kf", "controller"), setpoint, td["ocean"], 200.0, generator=g
+        )
+        stats = td["stats"]
+        stats = TensorDict({
+            "n": stats["n"] + decision["steps"],
+            "heading_sum": stats["heading_sum"] + decision["heading_error_sum"],
+            "heading_sq": stats["heading_sq"] + decision["heading_error_sq"],
+            "depth_sum": stats["depth_sum"] + decision["depth_error_sum"],
+            "depth_sq": stats["depth_sq"] + decision["depth_error_sq"],
+        }, batch_size=td.batch_size)  # fmt: skip
+        eta, nu, act = (vehicles["truth", k] for k in ("eta", "nu", "actuators"))
+        mean, cov, heading = (vehicles["kf", k] for k in ("mean", "cov", "heading"))
+        memory = vehicles["controller"]
         asv = torch.cat([eta[..., :2], torch.zeros_like(eta[..., :1])], -1)
         asv[..., 0] += 30.0  # the ASV keeps station 30 m north of the AUV
         fix, fix_cov, valid = usbl_fix(

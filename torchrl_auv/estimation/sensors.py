@@ -34,30 +34,65 @@ class SensorNoise:
                 raise ValueError(f"SensorNoise.{name} must be >= 0, got {getattr(self, name)}")
 
 
-def _noise(like: torch.Tensor, sigma: float, generator: torch.Generator) -> torch.Tensor:
+def _noise(
+    like: torch.Tensor,
+    sigma: float,
+    generator: torch.Generator | None,
+    standard_normal: torch.Tensor | None = None,
+) -> torch.Tensor:
+    if standard_normal is not None:
+        if standard_normal.shape != like.shape:
+            raise ValueError(
+                f"standard_normal must be shaped {tuple(like.shape)}, "
+                f"got {tuple(standard_normal.shape)}"
+            )
+        return sigma * standard_normal
+    if generator is None:
+        raise ValueError("generator must be a torch.Generator when standard_normal is not given")
     return sigma * torch.randn(
         like.shape, generator=generator, dtype=like.dtype, device=like.device
     )
 
 
-def dvl(nu: torch.Tensor, sigma: float, generator: torch.Generator) -> torch.Tensor:
+def dvl(
+    nu: torch.Tensor,
+    sigma: float,
+    generator: torch.Generator | None,
+    *,
+    standard_normal: torch.Tensor | None = None,
+) -> torch.Tensor:
     """DVL body velocity ``[*B, 3]`` (m/s) from ``nu [*B, 6]``.
+
+    ``standard_normal`` (``[*B, 3]``), when given, replaces the draw from ``generator`` (so a
+    caller can draw a whole decision's noise at once); the same holds for the other sensors.
 
     >>> g = torch.Generator().manual_seed(0)
     >>> dvl(torch.zeros(6), 0.0, g).tolist()
     [0.0, 0.0, 0.0]
     """
-    return nu[..., :3] + _noise(nu[..., :3], sigma, generator)
+    return nu[..., :3] + _noise(nu[..., :3], sigma, generator, standard_normal)
 
 
-def depth_sensor(depth: torch.Tensor, sigma: float, generator: torch.Generator) -> torch.Tensor:
+def depth_sensor(
+    depth: torch.Tensor,
+    sigma: float,
+    generator: torch.Generator | None,
+    *,
+    standard_normal: torch.Tensor | None = None,
+) -> torch.Tensor:
     """Depth reading (m), same shape as ``depth``."""
-    return depth + _noise(depth, sigma, generator)
+    return depth + _noise(depth, sigma, generator, standard_normal)
 
 
-def compass(heading: torch.Tensor, sigma: float, generator: torch.Generator) -> torch.Tensor:
+def compass(
+    heading: torch.Tensor,
+    sigma: float,
+    generator: torch.Generator | None,
+    *,
+    standard_normal: torch.Tensor | None = None,
+) -> torch.Tensor:
     """Compass heading (rad), same shape as ``heading`` (not wrapped)."""
-    return heading + _noise(heading, sigma, generator)
+    return heading + _noise(heading, sigma, generator, standard_normal)
 
 
 def usbl_fix(

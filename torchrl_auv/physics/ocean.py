@@ -409,7 +409,12 @@ def reset_ocean(
 
 
 def step_ocean(
-    state: TensorDict, sea_state: str | SeaState, dt: float, *, generator: torch.Generator
+    state: TensorDict,
+    sea_state: str | SeaState,
+    dt: float,
+    *,
+    generator: torch.Generator | None,
+    standard_normal: torch.Tensor | None = None,
 ) -> TensorDict:
     r"""Advance the current's Gauss-Markov processes and the clock by ``dt`` seconds, exactly.
 
@@ -430,6 +435,8 @@ def step_ocean(
         sea_state: the sea state the state was drawn for (a name or a :class:`SeaState`).
         dt: time step :math:`h > 0` (s).
         generator: the only source of randomness.
+        standard_normal: ``[2, *B]`` standard normals :math:`(w_k, w'_k)` to use instead of a
+            draw from ``generator`` (for callers that draw many steps' noise at once).
 
     Returns:
         A new TensorDict (``state`` is left unchanged; the fixed wave entries are shared).
@@ -444,15 +451,24 @@ def step_ocean(
     [0.05, 0.05, 0.05]
     """
     sea = get_sea_state(sea_state)
-    _check_generator(generator)
+    if standard_normal is None:
+        _check_generator(generator)
     if not (_is_real(dt) and math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a finite number > 0 (seconds), got {dt!r}")
     speed, direction = state["current_speed"], state["current_direction"]
     decay = math.exp(-dt / sea.current_time_constant)
     scale = math.sqrt(-math.expm1(-2 * dt / sea.current_time_constant))  # sqrt(1 - decay^2)
-    noise = torch.randn(
-        (2, *speed.shape), generator=generator, dtype=speed.dtype, device=speed.device
-    )
+    if standard_normal is None:
+        noise = torch.randn(
+            (2, *speed.shape), generator=generator, dtype=speed.dtype, device=speed.device
+        )
+    elif standard_normal.shape != (2, *speed.shape):
+        raise ValueError(
+            f"standard_normal must be shaped {(2, *speed.shape)}, "
+            f"got {tuple(standard_normal.shape)}"
+        )
+    else:
+        noise = standard_normal
     new_speed = (
         sea.current_mean
         + decay * (speed - sea.current_mean)
