@@ -195,3 +195,17 @@ def test_1000_decision_ves_episodes_with_random_actions(seed):
 def test_bad_input_names_the_argument(kwargs, argument):
     with pytest.raises(ValueError, match=argument):
         DataCollectionEnv(batch_size=[1], **kwargs)
+
+
+@pytest.mark.slow
+def test_expert_reaches_the_papers_magnitudes_with_the_paper_rate_model():
+    """Paper (and the group's heuristic): SDR ~100 (99-110), SSN ~50 (49-56), EC ~350 W
+    (404-418 W). "Of order" is checked as within a factor of 3 of the paper's value."""
+    env = DataCollectionEnv(batch_size=[4], seed=100, rate_model="paper")
+    td = env.rollout(1000, ScriptedExpert(env), break_when_any_done=False)
+    assert not td["next", "terminated"].any()
+    final = td["next", "metrics"][:, -1]
+    for name, paper in (("sdr", 100.0), ("ssn", 50.0), ("ec", 350.0)):
+        mean = final[name].float().mean().item()
+        assert paper / 3 <= mean <= 3 * paper, (name, mean)
+    assert (final["collisions"] <= 10).all()

@@ -13,3 +13,12 @@ def test_plot_episode_png(tmp_path):
     single = plot_episode(td[0], tmp_path / "s.png")
     for path in (batched, single):
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+
+
+def test_plot_data_collection_episode_png(tmp_path):
+    from torchrl_auv.envs import DataCollectionEnv
+
+    env = DataCollectionEnv(batch_size=[1], seed=0, rate_model="paper")
+    td = env.rollout(60, ScriptedExpert(env))
+    path = plot_episode(td, tmp_path / "fleet.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000

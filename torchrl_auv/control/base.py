@@ -9,12 +9,20 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 import torch
 from tensordict import TensorDict
 
-__all__ = ["FIN_LIMIT", "RPM_LIMIT", "Controller", "make_controller", "wrap_angle"]
+__all__ = [
+    "FIN_LIMIT",
+    "RPM_LIMIT",
+    "Controller",
+    "available_controllers",
+    "make_controller",
+    "wrap_angle",
+]
 
 FIN_LIMIT = 15.0 * math.pi / 180.0  # rad, the REMUS-100 fin limit
 RPM_LIMIT = 1525.0  # rpm
@@ -90,12 +98,27 @@ class Controller(ABC):
         dt: float,
     ) -> tuple[torch.Tensor, TensorDict]:
         _check(setpoint, eta, nu, dt)
+        command, new_memory = self.command(setpoint, eta, nu, memory, dt)
+        return command, TensorDict(new_memory, batch_size=memory.batch_size)
+
+    def command(
+        self,
+        setpoint: torch.Tensor,
+        eta: torch.Tensor,
+        nu: torch.Tensor,
+        memory: Mapping[str, torch.Tensor],
+        dt: float,
+    ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+        """:meth:`__call__` without input checks, on a plain mapping of memory tensors.
+
+        For compiled inner loops (``torch.compile`` traces it without graph breaks).
+        """
         rudder, stern, new_memory = self._fins(setpoint, eta, nu, memory, dt)
         rpm = setpoint[..., 2].clamp(0.0, RPM_LIMIT)
         command = torch.stack(
             (rudder.clamp(-FIN_LIMIT, FIN_LIMIT), stern.clamp(-FIN_LIMIT, FIN_LIMIT), rpm), -1
         )
-        return command, TensorDict(new_memory, batch_size=memory.batch_size)
+        return command, dict(new_memory)
 
     @abstractmethod
     def _fins(self, setpoint, eta, nu, memory, dt) -> tuple[torch.Tensor, torch.Tensor, dict]:

@@ -134,7 +134,9 @@ class DataCollectionEnv(EnvBase):
     "es", "ves" or a ``SeaState``); ``controller`` ("s_surface", "pid", "smc");
     ``rate_model`` ("shannon", "paper"); ``seed``; ``max_steps`` (default
     ``episode_decisions`` = 1000); ``flatten_agents`` (single-agent layout);
-    ``cost_weights``; ``termination_cost``; ``exit_margin_m``; any other
+    ``cost_weights``; ``termination_cost``; ``exit_margin_m``; ``compile_physics`` (run the
+    physics step through ``torch.compile``: one compilation per batch shape, then faster;
+    TorchRL's own ``compile=`` env argument compiles the whole step instead); any other
     :class:`~torchrl_auv.iout.IoUTConfig` field by keyword (e.g. ``area_m=(300.0, 300.0)``).
 
     **Version history.** v0: first release.
@@ -166,6 +168,7 @@ class DataCollectionEnv(EnvBase):
         cost_weights: iout.CostWeights | None = None,
         termination_cost: float = 50.0,
         exit_margin_m: float = 50.0,
+        compile_physics: bool = False,
         device: torch.device | str | None = None,
         **config_fields: object,
     ) -> None:
@@ -195,7 +198,11 @@ class DataCollectionEnv(EnvBase):
             raise ValueError(f"exit_margin_m must be >= 0, got {exit_margin_m}")
         self.exit_margin_m = float(exit_margin_m)
         self.vehicles = VehicleStack(
-            self.sea, self.controller, dt=self.config.decision_dt_s / 20, decision_steps=20
+            self.sea,
+            self.controller,
+            dt=self.config.decision_dt_s / 20,
+            decision_steps=20,
+            compile=compile_physics,
         )
         self.task_metrics = iout.TaskMetrics(self.config)
         self.rng = torch.Generator()

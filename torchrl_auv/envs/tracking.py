@@ -74,7 +74,8 @@ class AUVTrackingEnv(EnvBase):
 
     **Arguments.** ``batch_size``; ``sea_state`` ("ideal", "es", "ves" or a ``SeaState``);
     ``controller`` ("s_surface", "pid", "smc"); ``seed``; ``max_steps`` (decisions, default
-    300); ``segment_seconds`` (default 60).
+    300); ``segment_seconds`` (default 60); ``compile_physics`` (the 20 Hz inner loop through
+    ``torch.compile``, see :class:`~torchrl_auv.envs.vehicles.VehicleStack`).
 
     **Version history.** v0: first release.
 
@@ -96,6 +97,7 @@ class AUVTrackingEnv(EnvBase):
         seed: int | None = None,
         max_steps: int = 300,
         segment_seconds: float = 60.0,
+        compile_physics: bool = False,
         device: torch.device | str | None = None,
     ) -> None:
         self.sea = ocean.get_sea_state(sea_state)
@@ -110,7 +112,7 @@ class AUVTrackingEnv(EnvBase):
         self.max_steps = max_steps
         self.segment_steps = max(1, round(segment_seconds))
         self.num_segments = math.ceil(max_steps / self.segment_steps) + 1
-        self.vehicles = VehicleStack(self.sea, self.controller, dt=self.dt)
+        self.vehicles = VehicleStack(self.sea, self.controller, dt=self.dt, compile=compile_physics)
         self.noise, self.localiser = self.vehicles.noise, self.vehicles.localiser
         self.rng = torch.Generator()
         self.set_seed(0 if seed is None else seed)

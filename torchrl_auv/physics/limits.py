@@ -21,7 +21,11 @@ __all__ = ["depth_limits", "diverged"]
 
 
 def depth_limits(
-    eta: torch.Tensor, nu: torch.Tensor, seabed_depth: torch.Tensor | float
+    eta: torch.Tensor,
+    nu: torch.Tensor,
+    seabed_depth: torch.Tensor | float,
+    *,
+    check: bool = True,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
     r"""Clamp depth into ``[0, seabed_depth]`` and stop motion through the boundary.
 
@@ -37,6 +41,7 @@ def depth_limits(
         eta: ``[*B, 6]`` NED pose (``z`` positive down, m).
         nu: ``[*B, 6]`` body velocities.
         seabed_depth: seabed depth below the vehicle (m, > 0), a float or ``[*B]``.
+        check: validate the inputs (``False`` in compiled inner loops: no host sync).
 
     Returns:
         ``(eta, nu, at_surface, at_seabed)``: clamped copies and two boolean ``[*B]`` flags.
@@ -52,7 +57,7 @@ def depth_limits(
             f"eta and nu must be shaped [*B, 6], got {tuple(eta.shape)}, {tuple(nu.shape)}"
         )
     seabed = torch.as_tensor(seabed_depth, dtype=eta.dtype, device=eta.device)
-    if bool((seabed <= 0).any()):
+    if check and bool((seabed <= 0).any()):
         raise ValueError("seabed_depth must be > 0 (m)")
     depth = eta[..., 2]
     at_surface = depth < 0

@@ -70,6 +70,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import torch
@@ -79,7 +80,9 @@ __all__ = [
     "GRAVITY",
     "SEA_STATES",
     "SeaState",
+    "advance_current",
     "current_at",
+    "current_from_state",
     "get_sea_state",
     "jonswap_spectrum",
     "reset_ocean",
@@ -455,9 +458,7 @@ def step_ocean(
         _check_generator(generator)
     if not (_is_real(dt) and math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a finite number > 0 (seconds), got {dt!r}")
-    speed, direction = state["current_speed"], state["current_direction"]
-    decay = math.exp(-dt / sea.current_time_constant)
-    scale = math.sqrt(-math.expm1(-2 * dt / sea.current_time_constant))  # sqrt(1 - decay^2)
+    speed = state["current_speed"]
     if standard_normal is None:
         noise = torch.randn(
             (2, *speed.shape), generator=generator, dtype=speed.dtype, device=speed.device
@@ -469,20 +470,49 @@ def step_ocean(
         )
     else:
         noise = standard_normal
-    new_speed = (
-        sea.current_mean
-        + decay * (speed - sea.current_mean)
-        + (sea.current_sigma * scale) * noise[0]
-    )
-    mean_dir = state["current_direction_mean"]
-    new_direction = (
-        mean_dir + decay * (direction - mean_dir) + (sea.current_direction_sigma * scale) * noise[1]
+    new_speed, new_direction = advance_current(
+        speed, state["current_direction"], state["current_direction_mean"], sea, dt, noise
     )
     out = state.copy()
     out["current_speed"] = new_speed
     out["current_direction"] = new_direction
     out["time"] = state["time"] + dt
     return out
+
+
+def advance_current(
+    speed: torch.Tensor,
+    direction: torch.Tensor,
+    direction_mean: torch.Tensor,
+    sea: SeaState,
+    dt: float,
+    standard_normal: torch.Tensor,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The Gauss-Markov update of :func:`step_ocean` on plain tensors, without input checks.
+
+    Args:
+        speed, direction, direction_mean: ``[*B]`` current speed (m/s), direction and mean
+            direction (rad).
+        sea: the sea state.
+        dt: step (s, > 0).
+        standard_normal: ``[2, *B]`` standard normals.
+
+    Returns:
+        ``(speed, direction)`` after ``dt``.
+    """
+    decay = math.exp(-dt / sea.current_time_constant)
+    scale = math.sqrt(-math.expm1(-2 * dt / sea.current_time_constant))  # sqrt(1 - decay^2)
+    new_speed = (
+        sea.current_mean
+        + decay * (speed - sea.current_mean)
+        + (sea.current_sigma * scale) * standard_normal[0]
+    )
+    new_direction = (
+        direction_mean
+        + decay * (direction - direction_mean)
+        + (sea.current_direction_sigma * scale) * standard_normal[1]
+    )
+    return new_speed, new_direction
 
 
 def _check_position(state: TensorDict, position_ned: torch.Tensor) -> None:
@@ -583,6 +613,18 @@ def surface_elevation_at(state: TensorDict, position_ned: torch.Tensor) -> torch
     _check_position(state, position_ned)
     chi, _ = _phase_and_decay(state, position_ned)
     return _dot(torch.cos(chi), state["wave_amplitude"])
+
+
+def current_from_state(
+    state: Mapping[str, torch.Tensor], position_ned: torch.Tensor
+) -> torch.Tensor:
+    """:func:`current_at` without input checks, for compiled inner loops.
+
+    ``state`` may be any mapping with the entries of :func:`reset_ocean` whose shapes
+    broadcast against ``position_ned`` (e.g. scene entries with a singleton vehicle dim for a
+    fleet ``[*B, N, 3]``).
+    """
+    return _speed_and_direction(*_horizontal(state, position_ned))
 
 
 def current_at(state: TensorDict, position_ned: torch.Tensor) -> torch.Tensor:

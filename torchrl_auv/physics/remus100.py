@@ -58,6 +58,7 @@ __all__ = [
     "rotation_matrix",
     "saturate",
     "step",
+    "step_unchecked",
 ]
 
 # Column names of the reference CSV format, in state order (eta, nu, actuators).
@@ -613,10 +614,11 @@ def step(
     2.554
     """
     _check_step_inputs(eta, nu, actuators, command, current, dt)
-    return _step_unchecked(eta, nu, actuators, command, current, dt, params)
+    return step_unchecked(eta, nu, actuators, command, current, dt, params)
 
 
-def _step_unchecked(eta, nu, actuators, command, current, dt, params=None):
+def step_unchecked(eta, nu, actuators, command, current, dt, params=None):
+    """:func:`step` without input checks (for compiled inner loops); same arguments."""
     nu_dot, actuator_rate, saturated = dynamics(eta, nu, actuators, command, current, params)
     nu_next = nu + dt * nu_dot
     actuators_next = saturated + dt * actuator_rate
@@ -647,7 +649,7 @@ def compiled_step(
     _check_step_inputs(eta, nu, actuators, command, current, dt)
     fn = _COMPILED.get("step")
     if fn is None:
-        fn = _COMPILED["step"] = torch.compile(_step_unchecked, fullgraph=True, dynamic=False)
+        fn = _COMPILED["step"] = torch.compile(step_unchecked, fullgraph=True, dynamic=False)
     return fn(eta, nu, actuators, command, current, dt, params)
 
 

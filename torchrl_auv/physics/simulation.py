@@ -81,5 +81,5 @@ def compiled_step_in_ocean(
 
 
 def _compiled_body(eta, nu, actuators, command, ocean_state, dt, params=None):
-    current = ocean._speed_and_direction(*ocean._horizontal(ocean_state, eta[..., :3]))
-    return remus100._step_unchecked(eta, nu, actuators, command, current, dt, params)
+    current = ocean.current_from_state(ocean_state, eta[..., :3])
+    return remus100.step_unchecked(eta, nu, actuators, command, current, dt, params)
