@@ -49,6 +49,7 @@ AGENT_OBSERVATION_FEATURES = iout.OBSERVATION_FEATURES + VEHICLE_FEATURES
 _HOVER_RPM = 760.0  # the action's (and the vehicle's) slowest propeller speed
 _LOITER_LEAD = 0.5  # rad: while in service the heading setpoint leads the compass by this
 _START_RPM = 1200.0
+_EC_SPEED_LIMIT = 3.0  # m/s; the EC model's efficiency polynomial reaches 0 at 3.25 m/s
 _START_SPEED = 1.5  # m/s
 _ASV_SPEED = 2.0  # m/s, the ASV's top speed while it follows the fleet
 
@@ -70,9 +71,10 @@ class DataCollectionEnv(EnvBase):
 
     *Hovering.* The REMUS-100 cannot hover (its propeller does not run below 760 rpm here), so
     while an AUV is in service the env overrides its action: the propeller runs at 760 rpm,
-    the heading setpoint leads the compass heading by 0.5 rad (a steady turn) and the depth
-    setpoint is held. The AUV loiters in a tight circle near the node; the link rate is frozen
-    at the start of the service (``torchrl_auv.iout.service``).
+    the heading setpoint leads the compass heading by 0.5 rad (a steady turn at full rudder,
+    toward the side of the area's centre, chosen when the service starts) and the depth
+    setpoint is held. The AUV loiters on a circle of about 17 m radius near the node; the link
+    rate is frozen at the start of the service (``torchrl_auv.iout.service``).
 
     **Action** ``("agents", "action")`` ``[*B, N, 3]`` in [-1, 1] (``"action"`` ``[*B, 3 N]``
     with ``flatten_agents=True``), per AUV:
@@ -104,7 +106,10 @@ class DataCollectionEnv(EnvBase):
             + w_v 1[\text{violation}_j] + w_o \frac{N_{DO}}{\sum_i \lambda_i}
             \;(+\ c_{term} \text{ for the AUV that ends the episode}),
 
-    with defaults :math:`w_d = 1, w_p = 1, w_e = 0.2, w_c = 5, w_v = 5, w_o = 0.5` and
+    with :math:`P_j` the EC model's power at the AUV's mean speed through the water over the
+    decision (capped at 3 m/s, inside the model's domain: its efficiency polynomial reaches 0
+    at 3.25 m/s, which wave orbital velocities in ``ves`` can approach), or 105 W in service;
+    defaults :math:`w_d = 1, w_p = 1, w_e = 0.2, w_c = 5, w_v = 5, w_o = 0.5` and
     ``termination_cost`` :math:`c_{term} = 50`; ``reward = -cost + 5 * [service completed]``.
     The cost is non-negative (LAC's convention). Flat: the sums over AUVs, ``[*B, 1]``.
 
@@ -124,6 +129,7 @@ class DataCollectionEnv(EnvBase):
     **Other keys.** ``("truth", "eta" | "nu" | "actuators")`` ``[*B, N, .]`` (the true state,
     for metrics and plots; policies must not read it), ``("kf", "mean" | "cov" | "heading")``,
     ``"setpoint"`` ``[*B, N, 3]``, ``"controller"``, ``"ocean"``, ``"asv"`` ``[*B, 3]``,
+    ``"loiter_turn"`` ``[*B, N]`` (+1/-1 while in service),
     ``"task"`` (sensor-network state), ``"accumulators"``, ``"tracking"``, ``"step_count"``
     and ``("metrics", name)`` ``[*B]``: ``sdr`` (Mbit/s summed), ``ssn``, ``ec`` (W, 0 until
     an AUV has moved), ``ec_with_hover`` (W), ``shaft_power`` (W), ``collisions``,
@@ -307,6 +313,7 @@ class DataCollectionEnv(EnvBase):
                 "setpoint": torch.stack((eta[..., 2], heading, actuators[..., 2]), -1),
                 "ocean": ocean.reset_ocean(self.sea, shape, generator=g),
                 "asv": asv,
+                "loiter_turn": torch.zeros(*shape, n),
                 "task": task,
                 "accumulators": accumulators,
                 "tracking": tracking,
@@ -362,6 +369,20 @@ class DataCollectionEnv(EnvBase):
             action = tensordict["agents", "action"]
         return action.clamp(-1.0, 1.0)
 
+    def _loiter_turn(
+        self, td: TensorDictBase, hovering: torch.Tensor, heading_hat: torch.Tensor
+    ) -> torch.Tensor:
+        """+1 (starboard) or -1 (port) per AUV: the turn whose circle lies toward the area's
+        centre, chosen when a service starts and kept until it ends; 0 when not in service."""
+        turn = td["loiter_turn"]
+        position = td["kf", "mean"][..., :2]
+        centre = position.new_tensor([self.config.area_m[0] / 2, self.config.area_m[1] / 2])
+        starboard = torch.stack((-torch.sin(heading_hat), torch.cos(heading_hat)), -1)
+        inward = ((centre - position) * starboard).sum(-1)
+        new = torch.where(inward >= 0, 1.0, -1.0).to(turn.dtype)
+        turn = torch.where(turn == 0, new, turn)
+        return torch.where(hovering, turn, torch.zeros_like(turn))
+
     # -- step ----------------------------------------------------------------------------
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g, cfg = self.rng, self.config
@@ -372,6 +393,7 @@ class DataCollectionEnv(EnvBase):
         hovering = task["auvs", "in_service"]
         eta = td["truth", "eta"]
         heading_hat = td["kf", "heading"]
+        loiter_turn = self._loiter_turn(td, hovering, heading_hat)
         seabed = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
         sp = td["setpoint"]
         depth_sp = (sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp(0.0, None)
@@ -379,7 +401,7 @@ class DataCollectionEnv(EnvBase):
         heading_sp = sp[..., 1] + HEADING_STEP * action[..., 1]
         setpoint = torch.stack(
             (torch.where(hovering, sp[..., 0], depth_sp),
-             torch.where(hovering, heading_hat + _LOITER_LEAD, heading_sp),
+             torch.where(hovering, heading_hat + _LOITER_LEAD * loiter_turn, heading_sp),
              torch.where(hovering, _HOVER_RPM, RPM_SCALE * (action[..., 2] + 3.0))), -1
         )  # fmt: skip
         fleet = TensorDict(
@@ -391,7 +413,8 @@ class DataCollectionEnv(EnvBase):
         eta, nu, act = (vehicles["truth", k] for k in ("eta", "nu", "actuators"))
         position = eta[..., :3]
         steps = decision["steps"]
-        speed = decision["speed_sum"] / steps
+        # mean speed through the water over the decision, inside the EC model's domain
+        speed = (decision["speed_sum"] / steps).clamp(max=_EC_SPEED_LIMIT)
         task, events = iout.step(task, position, cfg, generator=g)
         accumulators = self.task_metrics.update(
             td["accumulators"], events, speed, decision["shaft_power_sum"] / steps
@@ -443,6 +466,7 @@ class DataCollectionEnv(EnvBase):
                 "setpoint": setpoint,
                 "ocean": sea_td,
                 "asv": asv,
+                "loiter_turn": loiter_turn,
                 "task": task,
                 "accumulators": accumulators,
                 "tracking": tracking,

@@ -61,6 +61,18 @@ def estimated_state(
     return torch.cat([kf_mean[..., :3], attitude], -1), torch.cat([v_body, nu[..., 3:]], -1)
 
 
+def _speed_through_water(
+    eta: torch.Tensor, nu: torch.Tensor, current: torch.Tensor
+) -> torch.Tensor:
+    """``|v - v_water|`` (m/s): the vehicle's speed relative to the horizontal water velocity
+    ``current`` = ``[speed, direction]`` (what drag, and so the EC power model, depends on)."""
+    v_ned = (rotation_matrix(eta[..., 3:]) @ nu[..., :3].unsqueeze(-1)).squeeze(-1)
+    water_n = current[..., 0] * torch.cos(current[..., 1])
+    water_e = current[..., 0] * torch.sin(current[..., 1])
+    relative = torch.stack((v_ned[..., 0] - water_n, v_ned[..., 1] - water_e, v_ned[..., 2]), -1)
+    return torch.linalg.vector_norm(relative, dim=-1)
+
+
 class VehicleStack:
     """Runs one decision (``decision_steps`` physics steps) for a batch of vehicles.
 
@@ -179,7 +191,9 @@ class VehicleStack:
             ``(vehicles, sea_state, stats)``; ``stats`` (batch ``[*V]``) holds the sums over
             the physics steps of :data:`DECISION_STATS`: step count, ``|heading error|`` and
             its square (rad, setpoint vs true), ``|depth error|`` and its square (m), speed
-            ``|v|`` (m/s) and propeller shaft power (W).
+            through the water (m/s; relative to the current and wave orbital velocity at the
+            vehicle, the speed that drag and the EC power model depend on) and propeller
+            shaft power (W, at that speed).
         """
         shape = vehicles.batch_size
         sea_shape = sea_state.batch_size
@@ -279,7 +293,7 @@ class VehicleStack:
         )
         e_h = wrap_angle(setpoint[..., 1] - eta[..., 5]).abs()
         e_d = (setpoint[..., 0] - eta[..., 2]).abs()
-        speed = torch.linalg.vector_norm(nu[..., :3], dim=-1)
+        speed = _speed_through_water(eta, nu, current)
         new_carry = {
             "eta": eta, "nu": nu, "actuators": act, "mean": mean, "cov": cov,
             "heading": heading, "memory": memory, "current_speed": speed_c,
