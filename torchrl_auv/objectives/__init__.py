@@ -1,0 +1,11 @@
+"""Losses: the diffusion proposer's denoising loss (and, next, the Lyapunov actor-critic).
+
+Owns TorchRL ``LossModule`` classes; they read keys set with ``set_keys`` and work with any env
+whose data carries those keys.
+"""
+
+from __future__ import annotations
+
+from torchrl_auv.objectives.denoising import DenoisingLoss
+
+__all__ = ["DenoisingLoss"]
