@@ -120,9 +120,9 @@ class MLPNoiseModel(_NoiseModel):
         action_dim: int,
         *,
         horizon: int = 8,
-        hidden: int = 256,
+        hidden: int = 128,
         depth: int = 3,
-        cond_dim: int = 128,
+        cond_dim: int = 64,
     ) -> None:
         super().__init__()
         _check_sizes(state_dim=state_dim, action_dim=action_dim, horizon=horizon,
