@@ -7,5 +7,10 @@ whose data carries those keys.
 from __future__ import annotations
 
 from torchrl_auv.objectives.denoising import DenoisingLoss
+from torchrl_auv.objectives.pretraining import (
+    PretrainResult,
+    heldout_denoising_loss,
+    pretrain_proposer,
+)
 
-__all__ = ["DenoisingLoss"]
+__all__ = ["DenoisingLoss", "PretrainResult", "heldout_denoising_loss", "pretrain_proposer"]

@@ -8,6 +8,19 @@ their tables and figures. Recipes call these; they hold no library logic of thei
 from __future__ import annotations
 
 from torchrl_auv.report.episode import plot_episode
+from torchrl_auv.report.proposals import (
+    plot_candidate_stages,
+    plot_pretraining_loss,
+    setpoint_paths,
+)
 from torchrl_auv.report.tracking import KalmanObserver, plot_tracking, tracking_table
 
-__all__ = ["KalmanObserver", "plot_episode", "plot_tracking", "tracking_table"]
+__all__ = [
+    "KalmanObserver",
+    "plot_candidate_stages",
+    "plot_episode",
+    "plot_pretraining_loss",
+    "plot_tracking",
+    "setpoint_paths",
+    "tracking_table",
+]
