@@ -62,6 +62,8 @@ class DiffusionProposer(TensorDictModuleBase):
         candidates_key, first_actions_key, stages_key: output keys (default under
             ``"proposer"`` next to ``state_key``); action_key: optional output.
         num_stages: how many denoising stages to keep (0: none).
+        compile: run the noise model's denoising step through ``torch.compile`` (compiles on
+            the first proposal per batch shape; see ``benchmarks/bench_proposer.py``).
 
     Examples:
         >>> from tensordict import TensorDict
@@ -94,6 +96,7 @@ class DiffusionProposer(TensorDictModuleBase):
         stages_key: NestedKey | None = None,
         action_key: NestedKey | None = None,
         num_stages: int = 0,
+        compile: bool = False,
     ) -> None:
         super().__init__()
         for name, value in (("state_dim", state_dim), ("action_dim", action_dim),
@@ -121,6 +124,8 @@ class DiffusionProposer(TensorDictModuleBase):
         self.noise_model = make_noise_model(
             noise_model, state_dim, action_dim, horizon=horizon, **self.noise_model_kwargs
         )
+        self.compile = bool(compile)
+        self._compiled: dict[int, object] = {}
         self.ema: AveragedModel | None = None
         self.use_ema = False
         self.generator: torch.Generator | None = None
@@ -256,6 +261,11 @@ class DiffusionProposer(TensorDictModuleBase):
         if not (isinstance(k, int) and k >= 1):
             raise ValueError(f"num_candidates must be an int >= 1, got {k!r}")
         model = self._sampling_model()
+        denoise = model.denoise
+        if self.compile:
+            if id(model) not in self._compiled:
+                self._compiled[id(model)] = torch.compile(model.denoise, dynamic=False)
+            denoise = self._compiled[id(model)]
         batch = state.shape[:-1]
         cond = model.condition(state).unsqueeze(-2).expand(*batch, k, -1)
         shape = (*batch, k, self.horizon, self.action_dim)
@@ -270,7 +280,7 @@ class DiffusionProposer(TensorDictModuleBase):
         stages = []
         for i, t in enumerate(steps):
             s = steps[i + 1] if i + 1 < len(steps) else -1
-            eps = model.denoise(x, torch.tensor(t, device=state.device), cond)
+            eps = denoise(x, torch.tensor(t, device=state.device), cond)
             noise = torch.randn(shape, **kw) if self.sampler == "ddpm" and s >= 0 else None
             x = self.schedule.step(x, eps, t, s, sampler=self.sampler, noise=noise)
             if i in keep:
@@ -312,6 +322,7 @@ class DiffusionProposer(TensorDictModuleBase):
             "stages_key": self.stages_key,
             "action_key": self.action_key,
             "num_stages": self.num_stages,
+            "compile": self.compile,
         }
 
     def save(self, path: str | Path) -> Path:
