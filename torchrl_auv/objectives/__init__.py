@@ -7,10 +7,20 @@ whose data carries those keys.
 from __future__ import annotations
 
 from torchrl_auv.objectives.denoising import DenoisingLoss
+from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
 from torchrl_auv.objectives.pretraining import (
     PretrainResult,
     heldout_denoising_loss,
     pretrain_proposer,
 )
 
-__all__ = ["DenoisingLoss", "PretrainResult", "heldout_denoising_loss", "pretrain_proposer"]
+__all__ = [
+    "FORMS",
+    "PRIORS",
+    "DenoisingLoss",
+    "LyapunovSpec",
+    "PretrainResult",
+    "heldout_denoising_loss",
+    "lyapunov_value",
+    "pretrain_proposer",
+]
