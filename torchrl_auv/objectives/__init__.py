@@ -7,6 +7,7 @@ whose data carries those keys.
 from __future__ import annotations
 
 from torchrl_auv.objectives.denoising import DenoisingLoss
+from torchrl_auv.objectives.lyapunov import MODES, LyapunovActorCriticLoss
 from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
 from torchrl_auv.objectives.pretraining import (
     PretrainResult,
@@ -16,8 +17,10 @@ from torchrl_auv.objectives.pretraining import (
 
 __all__ = [
     "FORMS",
+    "MODES",
     "PRIORS",
     "DenoisingLoss",
+    "LyapunovActorCriticLoss",
     "LyapunovSpec",
     "PretrainResult",
     "heldout_denoising_loss",

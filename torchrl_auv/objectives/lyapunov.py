@@ -1,0 +1,273 @@
+r"""``LyapunovActorCriticLoss``: the Lyapunov actor-critic (LAC) with Lagrangian dual updates.
+
+Paper §III-B (eqs. 20-28) after Han et al. (2020). With cost :math:`c \ge 0` (the ``cost`` key
+when present, else :math:`-r`), a Lyapunov critic :math:`L(s, a) = \mathrm{form}(z(s, a)) \ge 0`
+(:mod:`~torchrl_auv.objectives.lyapunov_forms`), the actor :math:`\pi`, the Lagrange multiplier
+:math:`\lambda \in [0, \lambda_{max}]` and the entropy temperature :math:`\beta`:
+
+.. math::
+
+    \mathcal L_{L} &= \mathbb E\big[(L(s, a) - c - \gamma (1 - d)\,
+        L_{target}(s', a'))^2\big],\ a' \sim \pi(s') \\
+    \Delta L &= L(s', a') - L(s, a) + \alpha c \quad (\text{mode "lac"}) \qquad
+        L(s, \tilde a) - L(s, a) + \alpha c,\ \tilde a \sim \pi(s) \quad (\text{mode "paper"}) \\
+    \mathcal L_{\pi} &= \bar\lambda\,\mathbb E[\Delta L] + \bar\beta\,\mathbb E[\log\pi]
+    \qquad \mathcal L_\lambda = -\log\lambda\ \mathbb E[\Delta L]^{\perp} \qquad
+    \mathcal L_\beta = -\log\beta\ \mathbb E[\log\pi + \bar{\mathcal H}]^{\perp}
+
+(bars and :math:`\perp`: no gradient). Each term sends gradient only to its own parameters:
+:math:`\mathcal L_L` to the critic, :math:`\mathcal L_\pi` to the actor (through the sampled
+actions; the critic is detached), :math:`\mathcal L_\lambda` to :math:`\log\lambda`,
+:math:`\mathcal L_\beta` to :math:`\log\beta`. Summing them under one optimiser is correct.
+
+**Why "lac" is the default.** With :math:`\gamma \to 1` the true cost-to-go satisfies
+:math:`V(s') - V(s) = -c`, so the next-state condition :math:`L(s', \pi(s')) - L(s, a) + \alpha c
+\le 0` is feasible for :math:`\alpha < 1` and is the one LAC's stability proof uses. The paper's
+eq. 25 as printed compares two actions at the same state (an advantage-like quantity that says
+nothing about the decrease along trajectories); it is available as ``mode="paper"``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from tensordict import NestedKey, TensorDict, TensorDictBase
+from tensordict.nn import TensorDictModule
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+from torchrl.objectives.common import LossModule
+from torchrl.objectives.utils import ValueEstimators
+
+from torchrl_auv.objectives.lyapunov_forms import FORMS, LyapunovSpec, lyapunov_value
+
+__all__ = ["MODES", "LyapunovActorCriticLoss"]
+
+MODES = ("lac", "paper")
+
+
+class LyapunovActorCriticLoss(LossModule):
+    """Lyapunov actor-critic loss with Lagrangian dual updates (module docstring).
+
+    Args:
+        actor_network: a TorchRL ``ProbabilisticActor`` (e.g. with ``TanhNormal``); its
+            parameters stay shared with the module passed in (a collector running it acts
+            with the trained policy).
+        lyapunov_network: a ``ValueOperator``-like module reading observation and action and
+            writing the raw critic output (``state_action_value`` for TorchRL's
+            ``ValueOperator``); the loss applies the form.
+        form: a Lyapunov form name (:data:`~torchrl_auv.objectives.FORMS`), or pass ``spec``.
+        stability_weight: :math:`\\alpha > 0`.
+        mode: ``"lac"`` (default) or ``"paper"``.
+        lambda_init, lambda_max: initial and largest Lagrange multiplier (> 0).
+        beta_init: initial entropy temperature (> 0).
+        target_entropy: ``"auto"`` (minus the action dimension) or a number.
+        action_spec: optional, for the ``"auto"`` target entropy.
+        spec: a full :class:`~torchrl_auv.objectives.LyapunovSpec` (overrides ``form`` and
+            ``stability_weight``).
+
+    Keys (``set_keys``): ``action``, ``reward``, ``cost``, ``done``, ``terminated``,
+    ``value`` (the critic's out key), ``observation`` (read by a prior), ``log_prob``.
+
+    Output: ``loss_actor``, ``loss_lyapunov``, ``loss_lambda``, ``loss_beta`` and detached
+    ``lambda``, ``beta``, ``delta_l`` (mean), ``violation_rate`` (fraction of
+    :math:`\\Delta L > 0`), ``lyapunov_value`` (mean), ``negative_cost_fraction``.
+    """
+
+    @dataclass
+    class _AcceptedKeys:
+        """Keys read by the loss (see the class docstring)."""
+
+        action: NestedKey = "action"
+        reward: NestedKey = "reward"
+        cost: NestedKey = "cost"
+        done: NestedKey = "done"
+        terminated: NestedKey = "terminated"
+        value: NestedKey = "state_action_value"
+        observation: NestedKey = "observation"
+        log_prob: NestedKey = "action_log_prob"
+
+    default_keys = _AcceptedKeys
+    default_value_estimator = ValueEstimators.TD0
+
+    def __init__(
+        self,
+        actor_network: TensorDictModule,
+        lyapunov_network: TensorDictModule,
+        *,
+        form: str = "softplus",
+        stability_weight: float = 0.1,
+        mode: str = "lac",
+        lambda_init: float = 1.0,
+        lambda_max: float = 1.0,
+        beta_init: float = 1.0,
+        target_entropy: str | float = "auto",
+        action_spec=None,
+        spec: LyapunovSpec | None = None,
+    ) -> None:
+        if form not in FORMS:
+            raise ValueError(f"form must be one of {sorted(FORMS)}, got {form!r}")
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        if not stability_weight > 0:
+            raise ValueError(f"stability_weight must be > 0, got {stability_weight}")
+        for name, value in (("lambda_init", lambda_init), ("lambda_max", lambda_max),
+                            ("beta_init", beta_init)):  # fmt: skip
+            if not value > 0:
+                raise ValueError(f"{name} must be > 0, got {value}")
+        if lambda_init > lambda_max:
+            raise ValueError(f"lambda_init must be <= lambda_max, got {lambda_init}")
+        if target_entropy != "auto" and not isinstance(target_entropy, int | float):
+            raise ValueError(f"target_entropy must be 'auto' or a number, got {target_entropy!r}")
+        super().__init__()
+        self.convert_to_functional(actor_network, "actor_network")
+        self.convert_to_functional(lyapunov_network, "lyapunov_network", create_target_params=True)
+        self.spec = spec if spec is not None else LyapunovSpec(form=form, alpha=stability_weight)
+        self.mode = mode
+        self.lambda_max = float(lambda_max)
+        self.log_lambda = torch.nn.Parameter(torch.tensor(float(lambda_init)).log())
+        self.log_beta = torch.nn.Parameter(torch.tensor(float(beta_init)).log())
+        self._target_entropy = target_entropy
+        self._action_spec = action_spec
+        self.gamma = 0.99
+
+    # -- configuration ---------------------------------------------------------------------
+    def set_lyapunov_spec(self, spec: LyapunovSpec) -> None:
+        """Switch the form, prior and stability weight; parameters, dual variables and any
+        optimiser state are untouched (the critic's raw output is reinterpreted)."""
+        if not isinstance(spec, LyapunovSpec):
+            raise ValueError(f"spec must be a LyapunovSpec, got {type(spec).__name__}")
+        self.spec = spec
+
+    def make_value_estimator(self, value_type: ValueEstimators = None, **hyperparams):
+        """Set the discount: ``make_value_estimator(ValueEstimators.TD0, gamma=0.995)``.
+
+        The Lyapunov target is a one-step (TD(0)) target; other estimators are refused.
+        """
+        if value_type not in (None, ValueEstimators.TD0):
+            raise ValueError(f"value_type must be ValueEstimators.TD0, got {value_type}")
+        gamma = hyperparams.pop("gamma", self.gamma)
+        if hyperparams:
+            raise ValueError(f"unknown value estimator arguments {sorted(hyperparams)}")
+        if not 0 < gamma <= 1:
+            raise ValueError(f"gamma must be in (0, 1], got {gamma}")
+        self.gamma = float(gamma)
+        return self
+
+    def _forward_value_estimator_keys(self, **kwargs) -> None:
+        pass
+
+    @property
+    def lambda_(self) -> torch.Tensor:
+        """The Lagrange multiplier, ``exp(log_lambda)`` clamped to ``[0, lambda_max]``."""
+        return self.log_lambda.exp().clamp(0.0, self.lambda_max)
+
+    @property
+    def beta(self) -> torch.Tensor:
+        return self.log_beta.exp()
+
+    @property
+    def in_keys(self) -> list[NestedKey]:
+        keys = [*self.actor_network.in_keys, self.tensor_keys.action]
+        keys += [("next", k) for k in self.actor_network.in_keys]
+        keys += [("next", self.tensor_keys.reward), ("next", self.tensor_keys.terminated)]
+        return list(dict.fromkeys(keys))
+
+    @property
+    def out_keys(self) -> list[str]:
+        losses = ["loss_actor", "loss_lyapunov", "loss_lambda", "loss_beta"]
+        return [*losses, "lambda", "beta", "delta_l", "violation_rate", "lyapunov_value",
+                "negative_cost_fraction"]  # fmt: skip
+
+    # -- pieces ----------------------------------------------------------------------------
+    def _sample(self, td: TensorDictBase, params) -> tuple[torch.Tensor, torch.Tensor]:
+        """Reparameterised action and its log-probability from the actor with ``params``."""
+        with set_exploration_type(ExplorationType.RANDOM), params.to_module(self.actor_network):
+            dist = self.actor_network.get_dist(td)
+            action = dist.rsample()
+            log_prob = dist.log_prob(action)
+        if log_prob.dim() == action.dim():  # per-dimension log-probs: sum them
+            log_prob = log_prob.sum(-1)
+        return action, log_prob
+
+    def _lyapunov(self, td: TensorDictBase, action: torch.Tensor, params) -> torch.Tensor:
+        """``L(s, action)`` ``[*B, 1]`` with the critic's ``params``."""
+        td = td.select(*self.lyapunov_network.in_keys, strict=False).copy()
+        td.set(self.tensor_keys.action, action)
+        with params.to_module(self.lyapunov_network):
+            raw = self.lyapunov_network(td).get(self.tensor_keys.value)
+        observation = td.get(self.tensor_keys.observation, None) if self.spec.prior else None
+        return lyapunov_value(raw, self.spec, observation)
+
+    def _cost(self, next_td: TensorDictBase) -> torch.Tensor:
+        cost = next_td.get(self.tensor_keys.cost, None)
+        if cost is None:
+            reward = next_td.get(self.tensor_keys.reward, None)
+            if reward is None:
+                raise ValueError(
+                    f"neither the cost key {self.tensor_keys.cost!r} nor the reward key "
+                    f"{self.tensor_keys.reward!r} is in the data's 'next' entry"
+                )
+            cost = -reward
+        return cost
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDict:
+        td = tensordict.copy()  # never modify the caller's data
+        next_td = td.get("next", None)
+        if next_td is None:
+            raise ValueError("the input must hold a 'next' entry (a transition)")
+        for key in self.lyapunov_network.in_keys:
+            if key != self.tensor_keys.action and td.get(key, None) is None:
+                raise ValueError(f"key {key!r} read by the lyapunov_network is missing")
+        cost = self._cost(next_td)
+        terminated = next_td.get(self.tensor_keys.terminated, None)
+        if terminated is None:
+            raise ValueError(f"key ('next', {self.tensor_keys.terminated!r}) is missing")
+        action = td.get(self.tensor_keys.action)
+        actor_params = self.actor_network_params
+        critic_params = self.lyapunov_network_params
+        frozen_critic = critic_params.detach()
+
+        # critic: L(s, a) towards c + gamma (1 - terminated) L_target(s', a')
+        with torch.no_grad():
+            next_action, _ = self._sample(next_td, actor_params.detach())
+            next_value = self._lyapunov(next_td, next_action, self.target_lyapunov_network_params)
+            target = cost + self.gamma * (1 - terminated.to(cost.dtype)) * next_value
+        value = self._lyapunov(td, action, critic_params)
+        loss_lyapunov = 0.5 * (value - target).square().mean()
+
+        # actor: lambda * DeltaL + beta * log pi, gradient through the sampled actions only
+        new_action, log_prob = self._sample(td, actor_params)
+        if self.mode == "lac":
+            policy_next, _ = self._sample(next_td, actor_params)
+            after = self._lyapunov(next_td, policy_next, frozen_critic)
+        else:
+            after = self._lyapunov(td, new_action, frozen_critic)
+        delta = after - value.detach() + self.spec.alpha * cost
+        loss_actor = self.lambda_.detach() * delta.mean() + self.beta.detach() * log_prob.mean()
+
+        # duals
+        loss_lambda = -self.log_lambda * delta.detach().mean()
+        target_entropy = self._target_entropy_value(new_action)
+        loss_beta = -self.log_beta * (log_prob + target_entropy).detach().mean()
+        return TensorDict(
+            {
+                "loss_actor": loss_actor,
+                "loss_lyapunov": loss_lyapunov,
+                "loss_lambda": loss_lambda,
+                "loss_beta": loss_beta,
+                "lambda": self.lambda_.detach(),
+                "beta": self.beta.detach(),
+                "delta_l": delta.detach().mean(),
+                "violation_rate": (delta.detach() > 0).float().mean(),
+                "lyapunov_value": value.detach().mean(),
+                "negative_cost_fraction": (cost < 0).float().mean(),
+            },
+            batch_size=[],
+        )
+
+    def _target_entropy_value(self, action: torch.Tensor) -> float:
+        if self._target_entropy != "auto":
+            return float(self._target_entropy)
+        if self._action_spec is not None:
+            return -float(self._action_spec.shape[-1])
+        return -float(action.shape[-1])
