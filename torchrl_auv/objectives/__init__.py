@@ -14,11 +14,14 @@ from torchrl_auv.objectives.pretraining import (
     heldout_denoising_loss,
     pretrain_proposer,
 )
+from torchrl_auv.objectives.selection import SELECTION_MODES, CandidateSelector
 
 __all__ = [
     "FORMS",
     "MODES",
     "PRIORS",
+    "SELECTION_MODES",
+    "CandidateSelector",
     "DenoisingLoss",
     "LyapunovActorCriticLoss",
     "LyapunovSpec",

@@ -1,0 +1,148 @@
+r"""``CandidateSelector``: pick one of the proposer's candidates with a critic ("filtering").
+
+Paper §III-B: the diffusion proposer's K candidate chunks are scored by a critic on their first
+action, :math:`Q(s, a_k)` ("Diffusion+RL", eq. 15: argmax) or the Lyapunov value
+:math:`L(s, a_k)` ("Diffusion+RL (LAC)": argmin, the optimal action OA); the chosen first action
+is executed. Optionally the actor's own action joins as one more candidate. Exploration: a
+softmax over the scores with a temperature, or epsilon-greedy. The ranking (best first) is kept
+so that OA, CA1 ... CA4 of the paper's Fig. 8/9 are recoverable.
+"""
+
+from __future__ import annotations
+
+import torch
+from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
+from tensordict.nn import TensorDictModuleBase
+
+from torchrl_auv.objectives.lyapunov_forms import LyapunovSpec, lyapunov_value
+
+__all__ = ["SELECTION_MODES", "CandidateSelector"]
+
+SELECTION_MODES = ("q", "lyapunov")
+
+
+class CandidateSelector(TensorDictModuleBase):
+    """Score candidates with a critic and write the chosen action.
+
+    Key contract: reads ``candidates_key`` ``[*B, K, H, A]`` (or ``[*B, K, A]``),
+    ``observation_key`` ``[*B, d]`` and, with ``include_actor_action``, ``actor_action_key``
+    ``[*B, A]``; writes ``action_key`` ``[*B, A]`` (the chosen first action) and under
+    ``("selector", ...)`` next to the candidates: ``index`` ``[*B]`` (int64; ``K`` is the
+    actor's action), ``scores`` ``[*B, K(+1)]`` (higher is better: :math:`Q` or :math:`-L`) and
+    ``ranking`` ``[*B, K(+1)]`` (candidate indices, best first: OA, CA1, ...).
+
+    Args:
+        critic: a module reading the observation and ``critic_action_key`` and writing
+            ``critic_out_key`` (TorchRL's ``ValueOperator``: ``state_action_value``).
+        mode: ``"q"`` (argmax Q) or ``"lyapunov"`` (argmin L, the raw output through ``spec``).
+        spec: the Lyapunov form (mode ``"lyapunov"``; default softplus).
+        exploration: ``None``, ``"softmax"`` (sample from softmax(scores / temperature)) or
+            ``"epsilon"`` (a uniformly random candidate with probability ``epsilon``).
+        temperature, epsilon: exploration parameters.
+        include_actor_action: score the actor's action as one more candidate.
+        generator: source of exploration draws.
+
+    Examples:
+        >>> from torchrl.modules import MLP, ValueOperator
+        >>> critic = ValueOperator(MLP(in_features=5, out_features=1, num_cells=[8]),
+        ...                        in_keys=["observation", "action"])
+        >>> selector = CandidateSelector(critic, mode="q")
+        >>> td = TensorDict({"observation": torch.zeros(2, 3),
+        ...                  ("proposer", "candidates"): torch.rand(2, 5, 8, 2)}, batch_size=[2])
+        >>> selector(td)["action"].shape, td["selector", "ranking"].shape
+        (torch.Size([2, 2]), torch.Size([2, 5]))
+    """
+
+    def __init__(
+        self,
+        critic: TensorDictModuleBase,
+        *,
+        mode: str = "q",
+        spec: LyapunovSpec | None = None,
+        exploration: str | None = None,
+        temperature: float = 1.0,
+        epsilon: float = 0.1,
+        include_actor_action: bool = False,
+        candidates_key: NestedKey = ("proposer", "candidates"),
+        observation_key: NestedKey = "observation",
+        action_key: NestedKey = "action",
+        actor_action_key: NestedKey = ("actor", "action"),
+        critic_action_key: NestedKey = "action",
+        critic_out_key: NestedKey = "state_action_value",
+        generator: torch.Generator | None = None,
+    ) -> None:
+        super().__init__()
+        if mode not in SELECTION_MODES:
+            raise ValueError(f"mode must be one of {SELECTION_MODES}, got {mode!r}")
+        if exploration not in (None, "softmax", "epsilon"):
+            raise ValueError(
+                f"exploration must be None, 'softmax' or 'epsilon', got {exploration!r}"
+            )
+        if not temperature > 0:
+            raise ValueError(f"temperature must be > 0, got {temperature}")
+        if not 0 <= epsilon <= 1:
+            raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
+        self.critic = critic
+        self.mode, self.spec = mode, spec or LyapunovSpec()
+        self.exploration, self.temperature, self.epsilon = exploration, temperature, epsilon
+        self.include_actor_action = include_actor_action
+        self.generator = generator
+        self.candidates_key = unravel_key(candidates_key)
+        self.observation_key = unravel_key(observation_key)
+        self.action_key = unravel_key(action_key)
+        self.actor_action_key = unravel_key(actor_action_key)
+        self.critic_action_key = unravel_key(critic_action_key)
+        self.critic_out_key = unravel_key(critic_out_key)
+        prefix = self.candidates_key[:-2] if isinstance(self.candidates_key, tuple) else ()
+        self.selector_key = (*prefix, "selector")
+        self.in_keys = [self.candidates_key, self.observation_key]
+        if include_actor_action:
+            self.in_keys.append(self.actor_action_key)
+        self.out_keys = [self.action_key] + [
+            (*self.selector_key, k) for k in ("index", "scores", "ranking")
+        ]
+
+    def scores(self, observation: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """Scores ``[*B, K]`` (higher is better) of first actions ``[*B, K, A]``."""
+        k = actions.shape[-2]
+        obs = observation.unsqueeze(-2).expand(*observation.shape[:-1], k, observation.shape[-1])
+        td = TensorDict(
+            {self.observation_key: obs, self.critic_action_key: actions},
+            batch_size=actions.shape[:-1],
+        )
+        with torch.no_grad():
+            raw = self.critic(td).get(self.critic_out_key)
+        if self.mode == "q":
+            return raw[..., 0]
+        return -lyapunov_value(raw, self.spec, obs if self.spec.prior else None)[..., 0]
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        candidates = tensordict.get(self.candidates_key, None)
+        if candidates is None:
+            raise ValueError(f"candidates_key {self.candidates_key!r} is missing from the input")
+        observation = tensordict.get(self.observation_key)
+        first = candidates[..., 0, :] if candidates.dim() >= observation.dim() + 2 else candidates
+        if self.include_actor_action:
+            own = tensordict.get(self.actor_action_key, None)
+            if own is None:
+                raise ValueError(f"actor_action_key {self.actor_action_key!r} is missing")
+            first = torch.cat([first, own.unsqueeze(-2)], -2)
+        scores = self.scores(observation, first)
+        ranking = scores.argsort(-1, descending=True)
+        index = ranking[..., 0]
+        if self.exploration == "softmax":
+            probs = torch.softmax(scores / self.temperature, -1)
+            flat = probs.reshape(-1, probs.shape[-1])
+            index = torch.multinomial(flat, 1, generator=self.generator).reshape(index.shape)
+        elif self.exploration == "epsilon":
+            shape, n = index.shape, scores.shape[-1]
+            explore = torch.rand(shape, generator=self.generator) < self.epsilon
+            random = torch.randint(0, n, shape, generator=self.generator)
+            index = torch.where(explore, random, index)
+        chosen = torch.gather(first, -2, index[..., None, None].expand(*index.shape, 1,
+                                                                      first.shape[-1]))  # fmt: skip
+        tensordict.set(self.action_key, chosen.squeeze(-2))
+        tensordict.set((*self.selector_key, "index"), index)
+        tensordict.set((*self.selector_key, "scores"), scores)
+        tensordict.set((*self.selector_key, "ranking"), ranking)
+        return tensordict
