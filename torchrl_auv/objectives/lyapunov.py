@@ -32,7 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
-from tensordict import NestedKey, TensorDict, TensorDictBase
+from tensordict import NestedKey, TensorDict, TensorDictBase, TensorDictParams
 from tensordict.nn import TensorDictModule
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.objectives.common import LossModule
@@ -88,6 +88,12 @@ class LyapunovActorCriticLoss(LossModule):
 
     default_keys = _AcceptedKeys
     default_value_estimator = ValueEstimators.TD0
+
+    actor_network: TensorDictModule
+    actor_network_params: TensorDictParams
+    lyapunov_network: TensorDictModule
+    lyapunov_network_params: TensorDictParams
+    target_lyapunov_network_params: TensorDictParams
 
     def __init__(
         self,
