@@ -91,6 +91,7 @@ class LyapunovActorCriticLoss(LossModule):
 
     actor_network: TensorDictModule
     actor_network_params: TensorDictParams
+    target_actor_network_params: TensorDictParams | None
     lyapunov_network: TensorDictModule
     lyapunov_network_params: TensorDictParams
     target_lyapunov_network_params: TensorDictParams
