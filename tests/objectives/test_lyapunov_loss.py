@@ -202,3 +202,43 @@ def test_missing_keys_are_named():
         loss(_batch().exclude(("next", "terminated")))
     with pytest.raises(ValueError, match="cost"):
         loss(_batch().exclude(("next", "cost"), ("next", "reward")))
+
+
+def test_multi_agent_keys_via_set_keys():
+    n_agents = 2
+    net = nn.Sequential(MLP(in_features=OBS, out_features=2 * ACT, num_cells=[32]),
+                        NormalParamExtractor())  # fmt: skip
+    actor = ProbabilisticActor(
+        TensorDictModule(net, in_keys=[("agents", "observation")],
+                         out_keys=[("agents", "loc"), ("agents", "scale")]),
+        in_keys={"loc": ("agents", "loc"), "scale": ("agents", "scale")},
+        out_keys=[("agents", "action")], distribution_class=TanhNormal,
+        distribution_kwargs={"low": -1.0, "high": 1.0},
+    )  # fmt: skip
+    critic = ValueOperator(MLP(in_features=OBS + ACT, out_features=16, num_cells=[32]),
+                           in_keys=[("agents", "observation"), ("agents", "action")],
+                           out_keys=[("agents", "state_action_value")])  # fmt: skip
+    loss = LyapunovActorCriticLoss(actor, critic, form="squared")
+    loss.set_keys(action=("agents", "action"), reward=("agents", "reward"),
+                  cost=("agents", "cost"), terminated=("agents", "terminated"),
+                  done=("agents", "done"), value=("agents", "state_action_value"),
+                  observation=("agents", "observation"))  # fmt: skip
+    b = 8
+    agents = lambda **kw: TensorDict(kw, batch_size=[b, n_agents])  # noqa: E731
+    data = TensorDict(
+        {
+            "agents": agents(observation=torch.randn(b, n_agents, OBS),
+                             action=torch.rand(b, n_agents, ACT) * 2 - 1),
+            "next": {"agents": agents(
+                observation=torch.randn(b, n_agents, OBS),
+                reward=-torch.rand(b, n_agents, 1), cost=torch.rand(b, n_agents, 1),
+                terminated=torch.zeros(b, n_agents, 1, dtype=torch.bool),
+                done=torch.zeros(b, n_agents, 1, dtype=torch.bool))},
+        },
+        batch_size=[b],
+    )  # fmt: skip
+    out = loss(data)
+    for key in ("loss_actor", "loss_lyapunov", "loss_lambda", "loss_beta"):
+        assert out[key].shape == () and torch.isfinite(out[key]), key
+    sum(v for k, v in out.items() if k.startswith("loss")).backward()
+    assert all(p.grad is not None for p in loss.actor_network_params.values(True, True))
