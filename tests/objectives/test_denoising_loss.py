@@ -69,3 +69,18 @@ def test_bad_input():
     loss = DenoisingLoss(DiffusionProposer(4, 2))
     with pytest.raises(ValueError, match="action"):
         loss(_data(horizon=4))
+
+
+def test_optional_ema_of_the_weights():
+    proposer = DiffusionProposer(4, 2)
+    loss = DenoisingLoss(proposer, ema_decay=0.9)
+    optim = torch.optim.Adam(loss.parameters(), lr=1e-2)
+    for _ in range(3):
+        optim.zero_grad()
+        _loss_value(loss, _data()).backward()
+        optim.step()
+        loss.update_ema()
+    ema = dict(proposer.ema.module.named_parameters())
+    moved = [not torch.equal(p, ema[n]) for n, p in proposer.noise_model.named_parameters()]
+    assert any(moved)  # the average lags the trained weights
+    assert {id(p) for p in loss.parameters()} == {id(p) for p in proposer.parameters()}

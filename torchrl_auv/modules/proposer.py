@@ -230,6 +230,7 @@ class DiffusionProposer(TensorDictModuleBase):
         if not 0.0 < decay < 1.0:
             raise ValueError(f"decay must be in (0, 1), got {decay}")
         self.ema = AveragedModel(self.noise_model, multi_avg_fn=get_ema_multi_avg_fn(decay))
+        self.ema.requires_grad_(False)  # averaged, never trained by an optimiser
 
     def update_ema(self) -> None:
         if self.ema is None:

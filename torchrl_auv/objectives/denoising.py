@@ -38,6 +38,8 @@ class DenoisingLoss(LossModule):
     Args:
         proposer: the proposer to train.
         generator: optional source of the timesteps and noise (default: the global RNG).
+        ema_decay: keep an exponential moving average of the noise model's weights
+            (:meth:`update_ema` after each optimiser step).
 
     Examples:
         >>> proposer = DiffusionProposer(4, 2, horizon=8)
@@ -67,13 +69,24 @@ class DenoisingLoss(LossModule):
     default_keys = _AcceptedKeys
 
     def __init__(
-        self, proposer: DiffusionProposer, *, generator: torch.Generator | None = None
+        self,
+        proposer: DiffusionProposer,
+        *,
+        generator: torch.Generator | None = None,
+        ema_decay: float | None = None,
     ) -> None:
         if not isinstance(proposer, DiffusionProposer):
             raise ValueError(f"proposer must be a DiffusionProposer, got {type(proposer).__name__}")
         super().__init__()
         self.proposer = proposer
         self.generator = generator
+        if ema_decay is not None:
+            proposer.enable_ema(ema_decay)
+
+    def update_ema(self) -> None:
+        """Move the proposer's EMA weights (call after each optimiser step when ``ema_decay``
+        was given); sampling uses them only once ``proposer.use_ema = True``."""
+        self.proposer.update_ema()
 
     def _forward_value_estimator_keys(self, **kwargs) -> None:
         pass

@@ -116,9 +116,7 @@ def pretrain_proposer(
         storage=LazyTensorStorage(len(train)), sampler=RandomSampler(), batch_size=batch_size
     )
     buffer.extend(train)
-    loss = DenoisingLoss(proposer, generator=g)
-    if ema_decay is not None:
-        proposer.enable_ema(ema_decay)
+    loss = DenoisingLoss(proposer, generator=g, ema_decay=ema_decay)
     optimiser = torch.optim.Adam(loss.parameters(), lr=lr)
     result, running = PretrainResult(), []
     if n_heldout:  # the untrained model's held-out loss, step 0 of the curve
@@ -130,7 +128,7 @@ def pretrain_proposer(
         value.backward()
         optimiser.step()
         if ema_decay is not None:
-            proposer.update_ema()
+            loss.update_ema()
         running.append(value.item())
         if step % log_every == 0:
             result.steps.append(step)
