@@ -19,7 +19,12 @@ from torchrl.envs import EnvBase
 from torchrl_auv import iout
 from torchrl_auv.envs.specs import controller_from_name, unbounded_spec_like
 from torchrl_auv.envs.tracking import DEPTH_STEP, HEADING_STEP, RPM_SCALE
-from torchrl_auv.envs.vehicles import VehicleStack
+from torchrl_auv.envs.vehicles import (
+    TRACKING_SUMS,
+    VehicleStack,
+    add_tracking_sums,
+    tracking_errors,
+)
 from torchrl_auv.estimation import usbl_fix
 from torchrl_auv.physics import ocean
 from torchrl_auv.physics.limits import diverged
@@ -299,10 +304,8 @@ class DataCollectionEnv(EnvBase):
         actuators[..., 2] = _START_RPM
         td = self.vehicles.init(eta, nu, actuators)  # batch [*B, N]
         tracking = TensorDict(
-            {k: torch.zeros(*shape, n) for k in ("steps", "heading_sum", "heading_sq",
-                                                  "depth_sum", "depth_sq")},
-            batch_size=(*shape, n),
-        )  # fmt: skip
+            {k: torch.zeros(*shape, n) for k in TRACKING_SUMS}, batch_size=(*shape, n)
+        )
         asv = torch.cat([positions[..., :2].mean(-2), torch.zeros(*shape, 1)], -1)
         accumulators = self.task_metrics.init(shape)
         state = TensorDict(
@@ -333,12 +336,8 @@ class DataCollectionEnv(EnvBase):
         metrics = self.task_metrics.finalize(accumulators)
         for name in ("ec", "ec_with_hover", "shaft_power"):  # 0/0 before the first decision
             metrics[name] = torch.nan_to_num(metrics[name], nan=0.0)
-        steps = tracking["steps"].clamp_min(1.0)
-        for name in ("heading", "depth"):
-            mean = tracking[f"{name}_sum"] / steps
-            var = (tracking[f"{name}_sq"] / steps - mean * mean).clamp_min(0.0)
-            metrics[f"{name}_error_mean"] = mean.mean(-1)
-            metrics[f"{name}_error_std"] = var.sqrt().mean(-1)
+        for name, value in tracking_errors(tracking).items():
+            metrics[name] = value.mean(-1)  # mean over the AUVs
         return metrics
 
     def _observe(self, state: TensorDictBase) -> torch.Tensor:
@@ -437,17 +436,7 @@ class DataCollectionEnv(EnvBase):
         )
         vehicles["kf", "mean"], vehicles["kf", "cov"] = mean, cov
 
-        tracking = td["tracking"]
-        tracking = TensorDict(
-            {
-                "steps": tracking["steps"] + steps,
-                "heading_sum": tracking["heading_sum"] + decision["heading_error_sum"],
-                "heading_sq": tracking["heading_sq"] + decision["heading_error_sq"],
-                "depth_sum": tracking["depth_sum"] + decision["depth_error_sum"],
-                "depth_sq": tracking["depth_sq"] + decision["depth_error_sq"],
-            },
-            batch_size=tracking.batch_size,
-        )
+        tracking = add_tracking_sums(td["tracking"], decision)
         x, y, m = eta[..., 0], eta[..., 1], self.exit_margin_m
         outside = (x < -m) | (x > cfg.area_m[0] + m) | (y < -m) | (y > cfg.area_m[1] + m)
         ending = diverged(eta, nu, act) | outside  # [*B, N]

@@ -63,13 +63,8 @@ def _chunks(actions: torch.Tensor, done: torch.Tensor, horizon: int):
     same = episode_of[:, t_clamped] == episode_of.unsqueeze(-1)
     valid = inside & same  # [R, T, H], a prefix in h
     last = torch.arange(steps).unsqueeze(-1) + valid.sum(-1, keepdim=True) - 1  # [R, T, 1]
-    index = torch.where(valid, t_clamped.expand_as(valid), last)
-    chunks = torch.gather(
-        actions.unsqueeze(1).expand(rows, steps, steps, actions.shape[-1]),
-        2,
-        index.unsqueeze(-1).expand(rows, steps, horizon, actions.shape[-1]),
-    )
-    return chunks, valid
+    index = torch.where(valid, t_clamped.expand_as(valid), last)  # [R, T, H]
+    return actions[torch.arange(rows)[:, None, None], index], valid
 
 
 def collect_demonstrations(

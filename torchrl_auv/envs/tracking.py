@@ -17,7 +17,12 @@ from torchrl.envs import EnvBase
 
 from torchrl_auv.control import wrap_angle
 from torchrl_auv.envs.specs import controller_from_name, unbounded_spec_like
-from torchrl_auv.envs.vehicles import VehicleStack
+from torchrl_auv.envs.vehicles import (
+    TRACKING_SUMS,
+    VehicleStack,
+    add_tracking_sums,
+    tracking_errors,
+)
 from torchrl_auv.estimation import usbl_fix
 from torchrl_auv.physics import ocean
 from torchrl_auv.physics.limits import diverged
@@ -172,11 +177,7 @@ class AUVTrackingEnv(EnvBase):
             (uniform(5.0, 30.0, self.num_segments), uniform(-math.pi, math.pi, self.num_segments),
              uniform(1.2, 2.2, self.num_segments)), -1)  # fmt: skip
         setpoint = torch.stack((eta[..., 2], eta[..., 5], actuators[..., 2]), -1)
-        zero = torch.zeros(shape)
-        stats = TensorDict(
-            {k: zero.clone() for k in ("n", "heading_sum", "heading_sq", "depth_sum", "depth_sq")},
-            batch_size=shape,
-        )
+        stats = TensorDict({k: torch.zeros(shape) for k in TRACKING_SUMS}, batch_size=shape)
         td = self.vehicles.init(eta, nu, actuators)
         td.update(
             {
@@ -218,18 +219,7 @@ class AUVTrackingEnv(EnvBase):
 
     @staticmethod
     def _metrics(stats: TensorDictBase) -> TensorDict:
-        n = stats["n"].clamp_min(1.0)
-        h_mean, d_mean = stats["heading_sum"] / n, stats["depth_sum"] / n
-        var = lambda sq, mean: (sq / n - mean * mean).clamp_min(0.0)  # noqa: E731
-        return TensorDict(
-            {
-                "heading_error_mean": h_mean,
-                "heading_error_std": var(stats["heading_sq"], h_mean).sqrt(),
-                "depth_error_mean": d_mean,
-                "depth_error_std": var(stats["depth_sq"], d_mean).sqrt(),
-            },
-            batch_size=stats.batch_size,
-        )
+        return TensorDict(tracking_errors(stats), batch_size=stats.batch_size)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g = self.rng
@@ -243,14 +233,7 @@ class AUVTrackingEnv(EnvBase):
         vehicles, sea_td, decision = self.vehicles.decide(
             td.select("truth", "kf", "controller"), setpoint, td["ocean"], 200.0, generator=g
         )
-        stats = td["stats"]
-        stats = TensorDict({
-            "n": stats["n"] + decision["steps"],
-            "heading_sum": stats["heading_sum"] + decision["heading_error_sum"],
-            "heading_sq": stats["heading_sq"] + decision["heading_error_sq"],
-            "depth_sum": stats["depth_sum"] + decision["depth_error_sum"],
-            "depth_sq": stats["depth_sq"] + decision["depth_error_sq"],
-        }, batch_size=td.batch_size)  # fmt: skip
+        stats = add_tracking_sums(td["stats"], decision)
         eta, nu, act = (vehicles["truth", k] for k in ("eta", "nu", "actuators"))
         mean, cov, heading = (vehicles["kf", k] for k in ("mean", "cov", "heading"))
         memory = vehicles["controller"]

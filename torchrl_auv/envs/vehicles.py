@@ -28,8 +28,16 @@ from torchrl_auv.physics.energy import shaft_power
 from torchrl_auv.physics.limits import depth_limits
 from torchrl_auv.physics.remus100 import rotation_matrix
 
-__all__ = ["DECISION_STATS", "VehicleStack", "estimated_state"]
+__all__ = [
+    "DECISION_STATS",
+    "TRACKING_SUMS",
+    "VehicleStack",
+    "add_tracking_sums",
+    "estimated_state",
+    "tracking_errors",
+]
 
+_CURRENT_KEYS = ("current_speed", "current_direction", "time")
 _WAVE_KEYS = ("wave_phase", "wave_kx", "wave_ky", "wave_frequency", "wave_number", "wave_un",
               "wave_ue")  # fmt: skip
 
@@ -43,6 +51,29 @@ DECISION_STATS = (
     "speed_sum",
     "shaft_power_sum",
 )
+
+
+#: the running tracking-error sums an env keeps per vehicle (a subset of DECISION_STATS)
+TRACKING_SUMS = DECISION_STATS[:5]
+
+
+def add_tracking_sums(running: TensorDictBase, decision: TensorDictBase) -> TensorDict:
+    """``running + decision`` over :data:`TRACKING_SUMS`, batch ``[*V]``."""
+    return TensorDict(
+        {k: running[k] + decision[k] for k in TRACKING_SUMS}, batch_size=decision.batch_size
+    )
+
+
+def tracking_errors(running: TensorDictBase) -> dict[str, torch.Tensor]:
+    """Mean and standard deviation of ``|heading error|`` (rad) and ``|depth error|`` (m)
+    per vehicle from :data:`TRACKING_SUMS` (0 before the first step)."""
+    steps = running["steps"].clamp_min(1.0)
+    out = {}
+    for name in ("heading", "depth"):
+        mean = running[f"{name}_error_sum"] / steps
+        var = (running[f"{name}_error_sq"] / steps - mean * mean).clamp_min(0.0)
+        out[f"{name}_error_mean"], out[f"{name}_error_std"] = mean, var.sqrt()
+    return out
 
 
 def estimated_state(
@@ -209,23 +240,23 @@ class VehicleStack:
         seabed = seabed.expand(shape)
         dtype, device = setpoint.dtype, setpoint.device
         steps = self.decision_steps
+        ones = (1,) * extra
         sea_noise = torch.randn((steps, 2, *sea_shape), generator=generator, dtype=dtype,
-                                device=device)  # fmt: skip
+                                device=device).reshape(steps, 2, *sea_shape, *ones)  # fmt: skip
         sensor_noise = torch.randn((steps, *shape, 5), generator=generator, dtype=dtype,
                                    device=device)  # fmt: skip
 
         def here(value: torch.Tensor) -> torch.Tensor:  # scene entries seen by every vehicle
-            return value.reshape((*value.shape[: len(sea_shape)], *(1,) * extra,
-                                  *value.shape[len(sea_shape):]))  # fmt: skip
+            return value.reshape((*sea_shape, *ones, *value.shape[len(sea_shape) :]))
 
+        # the ocean's entries get singleton vehicle dims once per decision, so that they
+        # broadcast against [*V] in every physics step
         waves = {k: here(sea_state[k]) for k in _WAVE_KEYS}
         carry = {
             **{k: vehicles["truth", k] for k in ("eta", "nu", "actuators")},
             **{k: vehicles["kf", k] for k in ("mean", "cov", "heading")},
             "memory": dict(vehicles["controller"].items()),
-            "current_speed": sea_state["current_speed"],
-            "current_direction": sea_state["current_direction"],
-            "time": sea_state["time"],
+            **{k: here(sea_state[k]) for k in _CURRENT_KEYS},
         }
         zero = torch.zeros(shape, dtype=dtype, device=device)
         sums = dict.fromkeys(DECISION_STATS[1:], zero)
@@ -233,8 +264,8 @@ class VehicleStack:
         unroll = self.unroll if self.compile else steps
         for k in range(0, steps, unroll):
             carry, sums = run(
-                carry, sums, setpoint, sea_state["current_direction_mean"], waves, seabed,
-                sensor_noise[k : k + unroll], sea_noise[k : k + unroll],
+                carry, sums, setpoint, here(sea_state["current_direction_mean"]), waves,
+                seabed, sensor_noise[k : k + unroll], sea_noise[k : k + unroll],
             )  # fmt: skip
         out = TensorDict(
             {
@@ -245,8 +276,8 @@ class VehicleStack:
             batch_size=shape,
         )
         new_sea = sea_state.copy()
-        for key in ("current_speed", "current_direction", "time"):
-            new_sea[key] = carry[key]
+        for key in _CURRENT_KEYS:
+            new_sea[key] = carry[key].reshape(sea_shape)
         stats = TensorDict({"steps": zero + steps, **sums}, batch_size=shape)
         return out, new_sea, stats
 
@@ -271,13 +302,8 @@ class VehicleStack:
             sea_draw,
         )  # fmt: skip
         time = carry["time"] + dt
-        extra = eta.dim() - 1 - speed_c.dim()
-        sea_here = {
-            **waves,
-            "current_speed": speed_c.reshape((*speed_c.shape, *(1,) * extra)),
-            "current_direction": direction_c.reshape((*direction_c.shape, *(1,) * extra)),
-            "time": time.reshape((*time.shape, *(1,) * extra)),
-        }
+        sea_here = {**waves, "current_speed": speed_c, "current_direction": direction_c,
+                    "time": time}  # fmt: skip
         current = ocean.current_from_state(sea_here, eta[..., :3])
         eta, nu, act = remus100.step_unchecked(eta, nu, act, command, current, dt)
         eta, nu, _, _ = depth_limits(eta, nu, seabed, check=False)
