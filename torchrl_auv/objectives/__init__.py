@@ -1,4 +1,4 @@
-"""Losses: the diffusion proposer's denoising loss (and, next, the Lyapunov actor-critic).
+"""Losses: the proposer's denoising loss, the Lyapunov actor-critic, candidate filtering.
 
 Owns TorchRL ``LossModule`` classes; they read keys set with ``set_keys`` and work with any env
 whose data carries those keys.
@@ -14,18 +14,21 @@ from torchrl_auv.objectives.pretraining import (
     heldout_denoising_loss,
     pretrain_proposer,
 )
+from torchrl_auv.objectives.q_filter import Q_REDUCTIONS, QEnsembleCritic
 from torchrl_auv.objectives.selection import SELECTION_MODES, CandidateSelector
 
 __all__ = [
     "FORMS",
     "MODES",
     "PRIORS",
+    "Q_REDUCTIONS",
     "SELECTION_MODES",
     "CandidateSelector",
     "DenoisingLoss",
     "LyapunovActorCriticLoss",
     "LyapunovSpec",
     "PretrainResult",
+    "QEnsembleCritic",
     "heldout_denoising_loss",
     "lyapunov_value",
     "pretrain_proposer",
