@@ -1,0 +1,150 @@
+"""``AdvisorTrigger``: when to consult the advisor, how to apply its decision, and the log.
+
+Any training loop calls :meth:`AdvisorTrigger.step` with the current frame count, the latest
+:class:`~torchrl_auv.advisor.TrainingFeedback` and the loss (anything with
+``spec``/``set_lyapunov_spec``, e.g. :class:`~torchrl_auv.objectives.LyapunovActorCriticLoss`).
+
+**Policy.** Consult at the first call ("start"). Afterwards consult when the feedback crosses a
+threshold (``oscillation_index >= oscillation``, ``violation_rate >= violation``,
+``return_trend <= -worsening``, ``collisions > 0``), but not within ``cooldown`` frames of the
+previous consultation. An accepted decision that differs from the loss's spec is applied with
+``set_lyapunov_spec`` (the loss keeps its parameters, dual variables and optimiser state).
+
+**Decision log.** Every consultation appends one JSON line to ``log_path`` (never truncated):
+frame, trigger, feedback, the spec before, the raw answer, the parsed decision, whether it was
+applied, the reasons and the latency. With a TorchRL ``WandbLogger`` the log is also sent as a
+``wandb.Table`` (``advisor/decisions``); any TorchRL logger gets ``advisor/alpha`` and
+``advisor/form_index`` scalars.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from torchrl_auv.advisor.decision import Advisor, AdvisorDecision
+from torchrl_auv.advisor.feedback import TrainingFeedback
+from torchrl_auv.advisor.rules import FORM_ORDER
+
+__all__ = ["AdvisorTrigger"]
+
+
+class AdvisorTrigger:
+    """Consult an advisor at start and on threshold crossings, with a cooldown (module docs).
+
+    Args:
+        advisor: a :class:`~torchrl_auv.advisor.decision.Advisor`.
+        task: the task text given to the advisor.
+        log_path: the JSONL decision log (appended; parent folders created).
+        cooldown: frames between consultations after the start.
+        oscillation, violation, worsening: the thresholds of the policy.
+        logger: an optional TorchRL logger.
+
+    Examples:
+        >>> import tempfile
+        >>> from torchrl_auv.advisor import RuleBasedAdvisor
+        >>> from torchrl_auv.objectives import LyapunovSpec
+        >>> class Loss:  # anything with spec / set_lyapunov_spec
+        ...     spec = LyapunovSpec()
+        ...     def set_lyapunov_spec(self, spec): self.spec = spec
+        >>> loss, folder = Loss(), tempfile.mkdtemp()
+        >>> trigger = AdvisorTrigger(RuleBasedAdvisor(), "tight depth hold",
+        ...                          log_path=f"{folder}/advisor.jsonl")
+        >>> trigger.step(0, None, loss).form, loss.spec.form
+        ('squared', 'squared')
+        >>> trigger.step(100, TrainingFeedback(), loss) is None  # no threshold crossed
+        True
+    """
+
+    def __init__(
+        self,
+        advisor: Advisor,
+        task: str,
+        *,
+        log_path: str | Path,
+        cooldown: int = 10_000,
+        oscillation: float = 0.3,
+        violation: float = 0.6,
+        worsening: float = 0.1,
+        logger=None,
+    ) -> None:
+        if not isinstance(advisor, Advisor):
+            raise ValueError(f"advisor must have propose(task, feedback, current), got {advisor!r}")
+        if cooldown < 0:
+            raise ValueError(f"cooldown must be >= 0 frames, got {cooldown}")
+        self.advisor, self.task = advisor, str(task)
+        self.log_path = Path(log_path)
+        self.log_path.parent.mkdir(parents=True, exist_ok=True)
+        self.cooldown = int(cooldown)
+        self.oscillation, self.violation, self.worsening = oscillation, violation, worsening
+        self.logger = logger
+        self.records: list[dict[str, Any]] = []
+        self._last_frame: int | None = None
+
+    def reason(self, frame: int, feedback: TrainingFeedback | None) -> str | None:
+        """Why to consult now (``"start"``, a threshold), or ``None``."""
+        if self._last_frame is None:
+            return "start"
+        if feedback is None or frame - self._last_frame < self.cooldown:
+            return None
+        if feedback.oscillation_index >= self.oscillation:
+            return f"oscillation_index {feedback.oscillation_index:.3f} >= {self.oscillation}"
+        if feedback.violation_rate >= self.violation:
+            return f"violation_rate {feedback.violation_rate:.3f} >= {self.violation}"
+        if feedback.return_trend <= -self.worsening:
+            return f"return_trend {feedback.return_trend:.3f} <= -{self.worsening}"
+        if feedback.collisions > 0:
+            return f"collisions {feedback.collisions:g} > 0"
+        return None
+
+    def step(self, frame: int, feedback: TrainingFeedback | None, loss) -> AdvisorDecision | None:
+        """Consult if the policy says so; apply and log the decision. ``None`` if not consulted."""
+        why = self.reason(frame, feedback)
+        if why is None:
+            return None
+        self._last_frame = frame
+        before = loss.spec
+        start = time.perf_counter()
+        try:
+            decision = self.advisor.propose(self.task, feedback, before)
+        except Exception as err:  # an advisor must not crash training: keep the spec
+            decision = AdvisorDecision.keep(before, type(self.advisor).__name__,
+                                            f"advisor raised {type(err).__name__}")  # fmt: skip
+        latency = time.perf_counter() - start
+        after = decision.to_spec(before) if decision.accepted else before
+        applied = after != before
+        if applied:
+            loss.set_lyapunov_spec(after)
+        record = {
+            "time": time.time(), "frame": frame, "trigger": why,
+            "feedback": None if feedback is None else feedback.as_dict(),
+            "spec_before": {k: v for k, v in asdict(before).items() if k != "prior_indices"},
+            "raw_answer": decision.raw, "decision": {k: v for k, v in decision.as_dict().items()
+                                                     if k != "raw"},
+            "applied": applied, "reasons": list(decision.reasons), "latency_s": latency,
+        }  # fmt: skip
+        self.records.append(record)
+        with self.log_path.open("a", encoding="utf-8") as f:
+            f.write(json.dumps(record) + "\n")
+        self._log(frame, record, loss.spec)
+        return decision
+
+    def _log(self, frame: int, record: dict[str, Any], spec) -> None:
+        if self.logger is None:
+            return
+        self.logger.log_scalar("advisor/alpha", spec.alpha, step=frame)
+        self.logger.log_scalar("advisor/form_index", FORM_ORDER.index(spec.form), step=frame)
+        experiment = getattr(self.logger, "experiment", None)
+        if type(self.logger).__name__ == "WandbLogger" and experiment is not None:
+            import wandb
+
+            columns = ["frame", "trigger", "form", "prior", "alpha", "applied", "source",
+                       "reasons", "latency_s", "rationale"]  # fmt: skip
+            rows = [[r["frame"], r["trigger"], r["decision"]["form"], str(r["decision"]["prior"]),
+                     r["decision"]["alpha"], r["applied"], r["decision"]["source"],
+                     "; ".join(r["reasons"]), r["latency_s"], r["decision"]["rationale"]]
+                    for r in self.records]  # fmt: skip
+            experiment.log({"advisor/decisions": wandb.Table(columns=columns, data=rows)})
