@@ -130,6 +130,21 @@ def test_timeout_keeps_the_spec_within_the_timeout(chat_server, tmp_path, caplog
     assert record["reasons"][0].startswith("timeout after 0.5 s") and record["latency_s"] < 2.0
 
 
+def test_the_timeout_bounds_the_whole_consultation(chat_server, tmp_path, caplog, secret_key):
+    """A quick 500 and then a slow fallback: the two requests share one deadline."""
+    chat_server.replies = [
+        chat_server.reply(500, LLAMA_500),
+        chat_server.reply(content=GOOD, delay=3.0),
+    ]
+    start = time.perf_counter()
+    _, loss, record = consult(chat_server.base_url, tmp_path, caplog, timeout=1.0)
+    assert time.perf_counter() - start < 1.8 and len(chat_server.requests) == 2
+    assert record["reasons"][0].startswith("HTTP 500") and record["reasons"][1].startswith(
+        "timeout"
+    )
+    assert loss.spec == CURRENT
+
+
 def test_connection_refused_keeps_the_spec(tmp_path, caplog, secret_key):
     with socket.socket() as s:  # a port nothing listens on
         s.bind(("127.0.0.1", 0))
@@ -137,6 +152,12 @@ def test_connection_refused_keeps_the_spec(tmp_path, caplog, secret_key):
     decision, loss, record = consult(f"http://127.0.0.1:{port}/v1", tmp_path, caplog)
     assert not decision.accepted and loss.spec == CURRENT
     assert record["reasons"][0].startswith("connection failed")
+    retrying = OpenAICompatibleAdvisor(
+        f"http://127.0.0.1:{port}/v1", "m", timeout=5.0, max_retries=2
+    )
+    start = time.perf_counter()
+    assert not retrying.propose("x", None, CURRENT).accepted
+    assert 1.4 < time.perf_counter() - start < 5.0  # two back-offs (0.5 s, 1 s) within the deadline
 
 
 def test_bad_arguments_name_the_argument():

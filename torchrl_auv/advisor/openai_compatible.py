@@ -1,7 +1,7 @@
 """``OpenAICompatibleAdvisor``: any OpenAI-compatible chat-completions endpoint as the advisor.
 
 Works with a hosted API, vLLM, Ollama or a llama.cpp server (``llm`` extra: the ``openai``
-client; we use it rather than raw HTTP for its timeouts, retries and error types). Temperature
+client; we use it rather than raw HTTP for its timeouts and error types). Temperature
 0.5 and top-p 1 by default, as in the paper (GPT-4o).
 
 **Structured output** is asked for in this order, moving on when the server refuses a strategy
@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import json
 import os
+import time
+from dataclasses import replace
 from typing import Any
 
 from torchrl_auv.advisor.decision import AdvisorDecision, validate_answer
@@ -47,8 +49,9 @@ class OpenAICompatibleAdvisor:
         base_url: the endpoint, e.g. ``"http://127.0.0.1:8080/v1"``.
         model: the model name the server expects.
         api_key_env: name of the environment variable holding the key (not the key).
-        timeout: seconds per request; also the longest the advisor blocks per attempt.
-        max_retries: the client's retries of a failed request (connection errors, 5xx).
+        timeout: seconds for a whole consultation (every strategy and retry): the longest the
+            advisor can block a training loop.
+        max_retries: retries of a request whose connection failed, within ``timeout``.
         temperature, top_p: sampling (paper: 0.5 and 1).
         max_tokens: longest answer.
 
@@ -101,8 +104,9 @@ class OpenAICompatibleAdvisor:
         except ImportError as err:  # pragma: no cover - the llm extra is in the lock file
             raise ImportError("OpenAICompatibleAdvisor needs the 'llm' extra: openai") from err
         key = os.environ.get(self.api_key_env) or "not-needed"
+        # retries are ours (within the consultation's deadline), not the client's
         return openai.OpenAI(base_url=self.base_url, api_key=key, timeout=self.timeout,
-                             max_retries=self.max_retries)  # fmt: skip
+                             max_retries=0)  # fmt: skip
 
     def _request(self, client, strategy: str, messages) -> str:
         """One chat completion with ``strategy``; returns the text holding the JSON answer."""
@@ -142,12 +146,13 @@ class OpenAICompatibleAdvisor:
 
         messages = build_messages(task, feedback, current)
         client = self._client()
+        deadline = time.monotonic() + self.timeout  # the whole consultation, all attempts
         reasons: list[str] = []
         raw = ""
         for strategy in list(self.strategies):
             source = f"openai:{self.model}:{strategy}"
             try:
-                raw = self._request(client, strategy, messages)
+                raw = self._request_within(client, strategy, messages, deadline)
                 answer = json.loads(raw) if strategy != "text" else json_from_text(raw)
             except openai.APITimeoutError:
                 reasons.append(f"timeout after {self.timeout:g} s ({strategy})")
@@ -167,9 +172,28 @@ class OpenAICompatibleAdvisor:
             self.strategies.remove(strategy)  # the working strategy goes first next time
             self.strategies.insert(0, strategy)
             decision = validate_answer(answer, current, source, raw=raw[:4000])
-            return AdvisorDecision(**{**decision.as_dict(),
-                                      "reasons": (*reasons, *decision.reasons)})  # fmt: skip
+            reasons += decision.reasons
+            return replace(decision, reasons=tuple(reasons))
         return AdvisorDecision.keep(current, f"openai:{self.model}", *reasons, raw=raw[:4000])
+
+    def _request_within(self, client, strategy: str, messages, deadline: float) -> str:
+        """``_request`` with the time left before ``deadline``; connection errors are retried
+        ``max_retries`` times while time is left."""
+        import openai
+
+        for attempt in range(self.max_retries + 1):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise openai.APITimeoutError(request=None)
+            try:
+                return self._request(client.with_options(timeout=remaining), strategy, messages)
+            except openai.APITimeoutError:
+                raise
+            except openai.APIConnectionError:
+                if attempt == self.max_retries:
+                    raise
+                time.sleep(min(0.5 * 2**attempt, max(deadline - time.monotonic(), 0)))
+        raise AssertionError("unreachable")
 
 
 def _short(text: str, n: int = 160) -> str:
