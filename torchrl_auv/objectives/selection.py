@@ -3,9 +3,12 @@ r"""``CandidateSelector``: pick one of the proposer's candidates with a critic (
 Paper §III-B: the diffusion proposer's K candidate chunks are scored by a critic on their first
 action, :math:`Q(s, a_k)` ("Diffusion+RL", eq. 15: argmax) or the Lyapunov value
 :math:`L(s, a_k)` ("Diffusion+RL (LAC)": argmin, the optimal action OA); the chosen first action
-is executed. Optionally the actor's own action joins as one more candidate. Exploration: a
-softmax over the scores with a temperature, or epsilon-greedy. The ranking (best first) is kept
-so that OA, CA1 ... CA4 of the paper's Fig. 8/9 are recoverable.
+is executed. At one state, argmin :math:`L(s, a_k)` is also argmin :math:`\Delta L` in the
+paper's form :math:`L(s, a_k) - L(s, a) + \alpha c` (the other terms do not depend on the
+candidate), so one Lyapunov mode serves both. Optionally the actor's own action joins as one
+more candidate. Exploration: a softmax over the scores with a temperature, or epsilon-greedy.
+The ranking (best first) is kept so that OA, CA1 ... CA4 of the paper's Fig. 8/9 are
+recoverable.
 """
 
 from __future__ import annotations
