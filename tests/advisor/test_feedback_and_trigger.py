@@ -103,6 +103,7 @@ def test_trigger_consults_at_start_on_thresholds_and_respects_the_cooldown(tmp_p
     assert [r["trigger"] for r in records] == ["start", "oscillation_index 0.500 >= 0.3"]
     assert records[1]["spec_before"]["form"] == "softplus" and records[1]["applied"]
     assert records[1]["feedback"]["position_oscillation"] == 0.5 and records[1]["latency_s"] >= 0
+    assert records[0]["task"] == "collect data"
     # appended, never truncated: a second trigger on the same file keeps the old lines
     AdvisorTrigger(RuleBasedAdvisor(), "x", log_path=log).step(0, None, _Loss())
     assert len(log.read_text().splitlines()) == 3

@@ -11,8 +11,8 @@ previous consultation. An accepted decision that differs from the loss's spec is
 ``set_lyapunov_spec`` (the loss keeps its parameters, dual variables and optimiser state).
 
 **Decision log.** Every consultation appends one JSON line to ``log_path`` (never truncated):
-frame, trigger, feedback, the spec before, the raw answer, the parsed decision, whether it was
-applied, the reasons and the latency. With a TorchRL ``WandbLogger`` the log is also sent as a
+frame, trigger, task text, feedback, the spec before, the raw answer, the parsed decision,
+whether it was applied, the reasons and the latency. With a TorchRL ``WandbLogger`` the log is also sent as a
 ``wandb.Table`` (``advisor/decisions``); any TorchRL logger gets ``advisor/alpha`` and
 ``advisor/form_index`` scalars.
 """
@@ -119,7 +119,8 @@ class AdvisorTrigger:
         if applied:
             loss.set_lyapunov_spec(after)
         record = {
-            "time": time.time(), "frame": frame, "trigger": why,
+            "time": time.time(),
+            "task": self.task[:500], "frame": frame, "trigger": why,
             "feedback": None if feedback is None else feedback.as_dict(),
             "spec_before": {k: v for k, v in asdict(before).items() if k != "prior_indices"},
             "raw_answer": decision.raw, "decision": {k: v for k, v in decision.as_dict().items()
