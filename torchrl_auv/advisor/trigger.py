@@ -12,9 +12,9 @@ previous consultation. An accepted decision that differs from the loss's spec is
 
 **Decision log.** Every consultation appends one JSON line to ``log_path`` (never truncated):
 frame, trigger, task text, feedback, the spec before, the raw answer, the parsed decision,
-whether it was applied, the reasons and the latency. With a TorchRL ``WandbLogger`` the log is also sent as a
-``wandb.Table`` (``advisor/decisions``); any TorchRL logger gets ``advisor/alpha`` and
-``advisor/form_index`` scalars.
+whether it was applied, the reasons and the latency. With a TorchRL ``WandbLogger`` the log is
+also sent as a ``wandb.Table`` (``advisor/decisions``); any TorchRL logger gets
+``advisor/alpha`` and ``advisor/form_index`` scalars.
 """
 
 from __future__ import annotations
