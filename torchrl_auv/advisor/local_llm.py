@@ -7,6 +7,13 @@ wheel; ``llama-cpp-python[server]`` serves it as an OpenAI-compatible endpoint o
     python -m torchrl_auv.advisor.local_llm --port 8080
     # then: OpenAICompatibleAdvisor("http://127.0.0.1:8080/v1", "smollm2")
 
+**"Illegal instruction" on the first request** (seen on our 2-core VMs): the CPU advertises AMX
+/ AVX-512 but the virtual machine faults on them, and llama.cpp's default build targets the host
+CPU. Build it for portable instructions instead::
+
+    CMAKE_ARGS="-DGGML_NATIVE=OFF -DGGML_AVX512=OFF -DGGML_AMX_TILE=OFF -DGGML_AMX_INT8=OFF" \
+        pip install --force-reinstall --no-deps --no-cache-dir "llama-cpp-python[server]"
+
 **Be clear about what this proves.** A 135M-parameter model exercises the whole plumbing
 (prompt, structured output through the fallbacks, validation, the decision log) but does not
 reason about Lyapunov functions: expect valid, arbitrary choices. For real use point
