@@ -186,9 +186,8 @@ def evaluate_tracking(actor, loss, seed: int, sea: str = "es", episodes: int = 1
         "eval_diverged": td["next", "terminated"].any(1).float().mean().item(),
     }
     if isinstance(loss, LyapunovActorCriticLoss):
-        critic = loss.lyapunov_network
-        with torch.no_grad(), loss.lyapunov_network_params.to_module(critic):
-            raw = critic(td.select("observation", "action").copy())["state_action_value"]
+        with torch.no_grad():  # the critic module shares its parameters with the loss
+            raw = loss.lyapunov_network(td.select("observation", "action"))["state_action_value"]
         lyap = lyapunov_value(raw, loss.spec, td["observation"])[..., 0]  # [E, T]
         delta = lyap[:, 1:] - lyap[:, :-1] + loss.spec.alpha * td["next", "cost"][:, :-1, 0]
         result.update(

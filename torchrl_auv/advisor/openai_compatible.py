@@ -154,7 +154,7 @@ class OpenAICompatibleAdvisor:
             try:
                 raw = self._request_within(client, strategy, messages, deadline)
                 answer = json.loads(raw) if strategy != "text" else json_from_text(raw)
-            except openai.APITimeoutError:
+            except (openai.APITimeoutError, TimeoutError):
                 reasons.append(f"timeout after {self.timeout:g} s ({strategy})")
                 break
             except openai.APIConnectionError as err:
@@ -177,23 +177,20 @@ class OpenAICompatibleAdvisor:
         return AdvisorDecision.keep(current, f"openai:{self.model}", *reasons, raw=raw[:4000])
 
     def _request_within(self, client, strategy: str, messages, deadline: float) -> str:
-        """``_request`` with the time left before ``deadline``; connection errors are retried
-        ``max_retries`` times while time is left."""
+        """``_request`` with the time left before ``deadline`` (``TimeoutError`` when none is
+        left); a refused connection is retried ``max_retries`` times while time is left."""
         import openai
 
-        for attempt in range(self.max_retries + 1):
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise openai.APITimeoutError(request=None)
+        attempt = 0
+        while (remaining := deadline - time.monotonic()) > 0:
             try:
                 return self._request(client.with_options(timeout=remaining), strategy, messages)
-            except openai.APITimeoutError:
-                raise
-            except openai.APIConnectionError:
-                if attempt == self.max_retries:
+            except openai.APIConnectionError as err:
+                if isinstance(err, openai.APITimeoutError) or attempt == self.max_retries:
                     raise
-                time.sleep(min(0.5 * 2**attempt, max(deadline - time.monotonic(), 0)))
-        raise AssertionError("unreachable")
+            time.sleep(min(0.5 * 2**attempt, max(deadline - time.monotonic(), 0)))
+            attempt += 1
+        raise TimeoutError
 
 
 def _short(text: str, n: int = 160) -> str:

@@ -44,6 +44,8 @@ __all__ = ["FORM_ORDER", "RuleBasedAdvisor"]
 
 #: forms from gentle to aggressive
 FORM_ORDER = ("log", "softplus", "squared")
+#: default thresholds, shared with :class:`~torchrl_auv.advisor.AdvisorTrigger`
+OSCILLATION_HIGH, VIOLATION_HIGH, WORSENING = 0.3, 0.6, 0.1
 
 _AGGRESSIVE_WORDS = ("very extreme", "aggressive", "tight", "fast")
 _GENTLE_WORDS = ("smooth", "gentle", "energy", "efficien")
@@ -75,8 +77,9 @@ class RuleBasedAdvisor:
 
     source = "rules"
 
-    def __init__(self, *, violation_high: float = 0.6, oscillation_high: float = 0.3,
-                 worsening: float = 0.1) -> None:  # fmt: skip
+    def __init__(self, *, violation_high: float = VIOLATION_HIGH,
+                 oscillation_high: float = OSCILLATION_HIGH,
+                 worsening: float = WORSENING) -> None:  # fmt: skip
         for name, value in (
             ("violation_high", violation_high),
             ("oscillation_high", oscillation_high),

@@ -25,9 +25,11 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from torchrl.record.loggers.wandb import WandbLogger
+
 from torchrl_auv.advisor.decision import Advisor, AdvisorDecision
 from torchrl_auv.advisor.feedback import TrainingFeedback
-from torchrl_auv.advisor.rules import FORM_ORDER
+from torchrl_auv.advisor.rules import FORM_ORDER, OSCILLATION_HIGH, VIOLATION_HIGH, WORSENING
 
 __all__ = ["AdvisorTrigger"]
 
@@ -66,9 +68,9 @@ class AdvisorTrigger:
         *,
         log_path: str | Path,
         cooldown: int = 10_000,
-        oscillation: float = 0.3,
-        violation: float = 0.6,
-        worsening: float = 0.1,
+        oscillation: float = OSCILLATION_HIGH,
+        violation: float = VIOLATION_HIGH,
+        worsening: float = WORSENING,
         logger=None,
     ) -> None:
         if not isinstance(advisor, Advisor):
@@ -138,8 +140,7 @@ class AdvisorTrigger:
             return
         self.logger.log_scalar("advisor/alpha", spec.alpha, step=frame)
         self.logger.log_scalar("advisor/form_index", FORM_ORDER.index(spec.form), step=frame)
-        experiment = getattr(self.logger, "experiment", None)
-        if type(self.logger).__name__ == "WandbLogger" and experiment is not None:
+        if isinstance(self.logger, WandbLogger):
             import wandb
 
             columns = ["frame", "trigger", "form", "prior", "alpha", "applied", "source",
@@ -148,4 +149,6 @@ class AdvisorTrigger:
                      r["decision"]["alpha"], r["applied"], r["decision"]["source"],
                      "; ".join(r["reasons"]), r["latency_s"], r["decision"]["rationale"]]
                     for r in self.records]  # fmt: skip
-            experiment.log({"advisor/decisions": wandb.Table(columns=columns, data=rows)})
+            self.logger.experiment.log(
+                {"advisor/decisions": wandb.Table(columns=columns, data=rows)}
+            )
