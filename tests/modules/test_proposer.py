@@ -121,22 +121,73 @@ def test_checkpoint_round_trip(tmp_path):
         proposer.save(path)  # never overwrites
 
 
+def _perturb(module, generator, scale=0.05):
+    with torch.no_grad():
+        for p in module.parameters():
+            p.add_(scale * torch.randn(p.shape, generator=generator))
+
+
+def test_ema_is_decay_times_old_plus_one_minus_decay_times_new():
+    decay = 0.9
+    proposer = DiffusionProposer(4, 2, num_inference_steps=3)
+    proposer.enable_ema(decay)
+    g = torch.Generator().manual_seed(0)
+    proposer.update_ema()  # the first update copies the weights
+    expected = {n: p.detach().clone() for n, p in proposer.noise_model.named_parameters()}
+    for _ in range(3):
+        _perturb(proposer.noise_model, g)
+        proposer.update_ema()
+        for n, p in proposer.noise_model.named_parameters():
+            expected[n] = decay * expected[n] + (1 - decay) * p.detach()
+    averaged = dict(proposer.ema.module.named_parameters())
+    for n, value in expected.items():
+        torch.testing.assert_close(averaged[n], value, rtol=1e-6, atol=1e-7)
+        assert not torch.equal(averaged[n], dict(proposer.noise_model.named_parameters())[n])
+
+
 def test_ema_is_used_only_when_enabled():
     proposer = DiffusionProposer(4, 2, num_inference_steps=3)
     proposer.enable_ema(0.5)
-    proposer.update_ema()  # the first update copies the weights
-    g = torch.Generator().manual_seed(0)
-    with torch.no_grad():
-        for p in proposer.noise_model.parameters():
-            p.add_(0.05 * torch.randn(p.shape, generator=g))
+    proposer.update_ema()
+    _perturb(proposer.noise_model, torch.Generator().manual_seed(0))
     proposer.update_ema()  # now halfway between the old and the new weights
     state, seed = torch.randn(2, 4), 3
     trained, _ = proposer.sample(state, generator=torch.Generator().manual_seed(seed))
     proposer.use_ema = True
     averaged, _ = proposer.sample(state, generator=torch.Generator().manual_seed(seed))
     assert not torch.equal(trained, averaged)
+    # sampling with use_ema is sampling from a model that holds the averaged weights
+    copy = DiffusionProposer(4, 2, num_inference_steps=3)
+    copy.noise_model.load_state_dict(proposer.ema.module.state_dict())
+    expected, _ = copy.sample(state, generator=torch.Generator().manual_seed(seed))
+    torch.testing.assert_close(averaged, expected)
 
 
+def test_ema_checkpoint_round_trip_keeps_weights_decay_and_use_ema(tmp_path):
+    decay = 0.9
+    proposer = DiffusionProposer(4, 2, num_inference_steps=3)
+    proposer.enable_ema(decay)
+    g = torch.Generator().manual_seed(0)
+    for _ in range(2):
+        _perturb(proposer.noise_model, g)
+        proposer.update_ema()
+    proposer.use_ema = True
+    loaded = DiffusionProposer.load(proposer.save(tmp_path / "ema.pt"))
+    assert loaded.ema_decay == decay and loaded.use_ema
+    state, seed = torch.randn(3, 4), 5
+    before, _ = proposer.sample(state, generator=torch.Generator().manual_seed(seed))
+    after, _ = loaded.sample(state, generator=torch.Generator().manual_seed(seed))
+    assert torch.equal(before, after)
+    # training resumes with the saved decay: one more identical step on both copies
+    for p in (proposer, loaded):
+        _perturb(p.noise_model, torch.Generator().manual_seed(7))
+    old = {n: p.detach().clone() for n, p in loaded.ema.module.named_parameters()}
+    for p in (proposer, loaded):
+        p.update_ema()
+    for n, p in loaded.ema.module.named_parameters():
+        new = dict(loaded.noise_model.named_parameters())[n].detach()
+        torch.testing.assert_close(p, decay * old[n] + (1 - decay) * new, rtol=1e-6, atol=1e-7)
+        torch.testing.assert_close(p, dict(proposer.ema.module.named_parameters())[n])
 @pytest.mark.parametrize(
     ("kwargs", "argument"),
     [

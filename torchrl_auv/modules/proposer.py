@@ -14,6 +14,7 @@ inside the bounds.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -127,6 +128,7 @@ class DiffusionProposer(TensorDictModuleBase):
         self.compile = bool(compile)
         self._compiled: dict[int, object] = {}
         self.ema: AveragedModel | None = None
+        self.ema_decay: float | None = None
         self.use_ema = False
         self.generator: torch.Generator | None = None
 
@@ -231,6 +233,7 @@ class DiffusionProposer(TensorDictModuleBase):
             raise ValueError(f"decay must be in (0, 1), got {decay}")
         self.ema = AveragedModel(self.noise_model, multi_avg_fn=get_ema_multi_avg_fn(decay))
         self.ema.requires_grad_(False)  # averaged, never trained by an optimiser
+        self.ema_decay = float(decay)
 
     def update_ema(self) -> None:
         if self.ema is None:
@@ -339,6 +342,8 @@ class DiffusionProposer(TensorDictModuleBase):
                 "schedule": self.schedule.config(),
                 "noise_model": self.noise_model.state_dict(),
                 "ema": None if self.ema is None else self.ema.state_dict(),
+                "ema_decay": self.ema_decay,
+                "use_ema": self.use_ema,
             },
             path,
         )
@@ -346,7 +351,9 @@ class DiffusionProposer(TensorDictModuleBase):
 
     @classmethod
     def load(cls, path: str | Path) -> DiffusionProposer:
-        """Rebuild a proposer saved by :meth:`save`."""
+        """Rebuild a proposer saved by :meth:`save`: weights, and the EMA weights with their
+        decay and the ``use_ema`` switch (older checkpoints that hold no decay resume at the
+        default 0.995, with a warning)."""
         data = torch.load(Path(path), weights_only=False)
         config = dict(data["config"])
         for key in ("state_key", "history_key", "candidates_key", "first_actions_key",
@@ -356,6 +363,15 @@ class DiffusionProposer(TensorDictModuleBase):
         proposer = cls(**config)
         proposer.noise_model.load_state_dict(data["noise_model"])
         if data["ema"] is not None:
-            proposer.enable_ema()
+            decay = data.get("ema_decay")
+            if decay is None:
+                warnings.warn(
+                    f"{path} holds EMA weights but no EMA decay (an old checkpoint); "
+                    "resuming with the default decay 0.995",
+                    stacklevel=2,
+                )
+                decay = 0.995
+            proposer.enable_ema(decay)
             proposer.ema.load_state_dict(data["ema"])
+        proposer.use_ema = bool(data.get("use_ema", False))
         return proposer
