@@ -25,8 +25,18 @@ def test_linear_schedule_closed_forms():
     assert var[0].item() == 0.0
 
 
-def test_cosine_schedule_is_monotone_and_ends_near_zero():
-    schedule = NoiseSchedule(1000, "cosine")
+def test_cosine_schedule_closed_form():
+    """Nichol & Dhariwal (2021), eq. 17: abar_t = f(t) / f(0), f(t) = cos^2((t/T + s)/(1 + s)
+    pi/2), s = 0.008, with beta_t = 1 - abar_t / abar_{t-1} clipped at 0.999. Our index t
+    (0-based) is their t + 1 (the first training step already adds noise)."""
+    T, s = 1000, 0.008
+    schedule = NoiseSchedule(T, "cosine")
+    f = lambda t: math.cos((t / T + s) / (1 + s) * math.pi / 2) ** 2  # noqa: E731
+    for t in (0, 1, 10, 250, 500, 900, 990):
+        assert schedule.alpha_bar[t].item() == pytest.approx(f(t + 1) / f(0), rel=1e-9)
+        beta = min(1 - f(t + 1) / f(t), 0.999)
+        assert schedule.betas[t].item() == pytest.approx(beta, rel=1e-9)
+    assert schedule.betas.max().item() == pytest.approx(0.999)  # the clip is reached at t = T-1
     abar = schedule.alpha_bar
     assert (abar[1:] < abar[:-1]).all() and abar[-1] < 1e-3 and abar[0] > 0.99
 

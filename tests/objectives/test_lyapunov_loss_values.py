@@ -1,0 +1,215 @@
+"""LyapunovActorCriticLoss values against a hand calculation.
+
+The actor is a Dirac policy at a linear function of the observation (``a = A o + a0``) with a
+known log-density, and the critic is one linear layer with weights set here, so every loss term
+of the module docstring (paper eqs. 20-28, LAC) can be written out in plain torch in the test:
+the critic target with the discount, the terminated mask and the *target* network, the decrease
+:math:`\\Delta L` in both modes, the actor's :math:`\\lambda \\Delta L + \\beta \\log\\pi`, and the
+two dual losses, for every form and prior.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import pytest
+import torch
+from tensordict import TensorDict
+from tensordict.nn import TensorDictModule
+from torch import nn
+from torchrl.data import Bounded
+from torchrl.modules import ProbabilisticActor, ValueOperator
+
+from torchrl_auv.objectives import LyapunovActorCriticLoss, LyapunovSpec
+
+OBS, ACT, RAW, N = 3, 2, 2, 6
+LOG_PROB_SHIFT = -1.25
+
+
+class _Dirac(torch.distributions.Distribution):
+    """All mass at ``loc``; ``log_prob(x) = -0.5 |x|^2 + LOG_PROB_SHIFT`` (a known function of
+    the action, so that the entropy terms have a value the test can compute)."""
+
+    has_rsample = True
+    arg_constraints: ClassVar[dict] = {}
+
+    def __init__(self, loc: torch.Tensor) -> None:
+        self.loc = loc
+        super().__init__(batch_shape=loc.shape[:-1], event_shape=loc.shape[-1:],
+                         validate_args=False)  # fmt: skip
+
+    def rsample(self, sample_shape=()) -> torch.Tensor:
+        return self.loc.expand(*sample_shape, *self.loc.shape)
+
+    def log_prob(self, value: torch.Tensor) -> torch.Tensor:
+        return -0.5 * value.square().sum(-1) + LOG_PROB_SHIFT
+
+    @property
+    def deterministic_sample(self) -> torch.Tensor:
+        return self.loc
+
+
+class _Affine(nn.Module):
+    """``W [o, a] + b`` on the concatenated inputs."""
+
+    def __init__(self, weight: torch.Tensor, bias: torch.Tensor) -> None:
+        super().__init__()
+        self.weight = nn.Parameter(weight.clone())
+        self.bias = nn.Parameter(bias.clone())
+
+    def forward(self, *inputs: torch.Tensor) -> torch.Tensor:
+        return torch.cat(inputs, -1) @ self.weight.T + self.bias
+
+
+# the numbers of the hand calculation (chosen, not read off the code)
+A = torch.tensor([[0.5, -0.3, 0.2], [0.1, 0.4, -0.6]])
+A0 = torch.tensor([0.05, -0.1])
+W = torch.tensor([[0.3, -0.2, 0.1, 0.6, -0.4], [-0.5, 0.25, 0.35, -0.15, 0.45]])
+B = torch.tensor([0.2, -0.1])
+W_TARGET = W + 0.3  # the target network differs from the online one
+B_TARGET = B - 0.2
+PRIOR_INDICES = {"position": (0,), "velocity": (1, 2)}
+
+
+def _modules():
+    actor = ProbabilisticActor(
+        TensorDictModule(_Affine(A, A0), in_keys=["observation"], out_keys=["loc"]),
+        in_keys=["loc"], distribution_class=_Dirac, return_log_prob=True,
+    )  # fmt: skip
+    critic = ValueOperator(_Affine(W, B), in_keys=["observation", "action"])
+    return actor, critic
+
+
+def _data():
+    g = torch.Generator().manual_seed(0)
+    cost = torch.rand(N, 1, generator=g) * 2
+    terminated = torch.zeros(N, 1, dtype=torch.bool)
+    terminated[[1, 4]] = True
+    return TensorDict(
+        {
+            "observation": torch.randn(N, OBS, generator=g),
+            "action": torch.rand(N, ACT, generator=g) * 2 - 1,
+            "next": {
+                "observation": torch.randn(N, OBS, generator=g),
+                "cost": cost,
+                "reward": torch.zeros(N, 1),  # not -cost: the cost key must be the one read
+                "done": terminated.clone(),
+                "terminated": terminated,
+            },
+        },
+        batch_size=[N],
+    )
+
+
+def _hand_l(obs, action, spec, weight=W, bias=B):
+    """The Lyapunov value by hand: the form of the affine critic plus the prior."""
+    raw = torch.cat([obs, action], -1) @ weight.T + bias
+    if spec.form == "softplus":
+        value = torch.log(1 + torch.exp(raw[:, :1]))
+    elif spec.form == "squared":
+        value = (raw**2).sum(-1, keepdim=True)
+    else:
+        value = torch.log(1 + (raw**2).sum(-1, keepdim=True))
+    if spec.prior is not None:
+        index = list(PRIOR_INDICES[spec.prior])
+        value = value + spec.prior_weight * (obs[:, index] ** 2).sum(-1, keepdim=True)
+    return value
+
+
+def _expected(data, spec, *, mode, gamma, lam, beta, target_entropy):
+    obs, action, nobs = data["observation"], data["action"], data["next", "observation"]
+    cost, term = data["next", "cost"], data["next", "terminated"].float()
+    policy = lambda o: o @ A.T + A0  # noqa: E731  (the Dirac actor)
+    log_pi = -0.5 * (policy(obs) ** 2).sum(-1) + LOG_PROB_SHIFT
+    value = _hand_l(obs, action, spec)
+    next_target = _hand_l(nobs, policy(nobs), spec, W_TARGET, B_TARGET)
+    target = cost + gamma * (1 - term) * next_target
+    if mode == "lac":
+        after = _hand_l(nobs, policy(nobs), spec)
+    else:
+        after = _hand_l(obs, policy(obs), spec)
+    delta = after - value + spec.alpha * cost
+    return {
+        "loss_lyapunov": 0.5 * ((value - target) ** 2).mean(),
+        "delta_l": delta.mean(),
+        "violation_rate": (delta > 0).float().mean(),
+        "lyapunov_value": value.mean(),
+        "loss_actor": lam * delta.mean() + beta * log_pi.mean(),
+        "loss_lambda": -torch.log(torch.tensor(lam)) * delta.mean(),
+        "loss_beta": -torch.log(torch.tensor(beta)) * (log_pi + target_entropy).mean(),
+    }
+
+
+def _loss(spec, mode, **kwargs):
+    actor, critic = _modules()
+    loss = LyapunovActorCriticLoss(actor, critic, spec=spec, mode=mode, lambda_init=0.7,
+                                   lambda_max=1.0, beta_init=0.3, **kwargs)  # fmt: skip
+    with torch.no_grad():
+        loss.target_lyapunov_network_params["module", "weight"].copy_(W_TARGET)
+        loss.target_lyapunov_network_params["module", "bias"].copy_(B_TARGET)
+    return loss
+
+
+def _check(out, expected):
+    for key, value in expected.items():
+        torch.testing.assert_close(out[key], value.to(out[key].dtype), rtol=1e-5, atol=1e-6,
+                                   msg=lambda m, key=key: f"{key}: {m}")  # fmt: skip
+
+
+@pytest.mark.parametrize("mode", ["lac", "paper"])
+@pytest.mark.parametrize("form", ["softplus", "squared", "log"])
+@pytest.mark.parametrize("prior", [None, "position", "velocity"])
+def test_every_term_equals_the_hand_calculation(mode, form, prior):
+    spec = LyapunovSpec(form=form, prior=prior, alpha=0.3, prior_weight=0.7,
+                        prior_indices=PRIOR_INDICES)  # fmt: skip
+    loss = _loss(spec, mode, target_entropy=-1.5)
+    loss.make_value_estimator(gamma=0.9)
+    data = _data()
+    expected = _expected(data, spec, mode=mode, gamma=0.9, lam=0.7, beta=0.3,
+                         target_entropy=-1.5)  # fmt: skip
+    _check(loss(data), expected)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "target_entropy"),
+    [
+        ({}, -float(ACT)),  # "auto": minus the action dimension
+        ({"action_spec": Bounded(-1.0, 1.0, shape=(ACT + 2,))}, -float(ACT + 2)),
+        ({"target_entropy": 0.75}, 0.75),
+    ],
+)
+def test_the_target_entropy_in_the_temperature_loss(kwargs, target_entropy):
+    spec = LyapunovSpec(form="squared", alpha=0.1)
+    out = _loss(spec, "lac", **kwargs)(_data())
+    expected = _expected(_data(), spec, mode="lac", gamma=0.99, lam=0.7, beta=0.3,
+                         target_entropy=target_entropy)  # fmt: skip
+    _check(out, {"loss_beta": expected["loss_beta"]})
+
+
+def test_the_default_discount_is_0_99_and_lambda_is_clamped_to_lambda_max():
+    spec = LyapunovSpec(form="log", alpha=0.2)
+    loss = _loss(spec, "lac")
+    with torch.no_grad():
+        loss.log_lambda.fill_(torch.tensor(5.0).log())  # exp = 5 > lambda_max = 1
+    out = loss(_data())
+    expected = _expected(_data(), spec, mode="lac", gamma=0.99, lam=1.0, beta=0.3,
+                         target_entropy=-float(ACT))  # fmt: skip
+    expected["loss_lambda"] = -torch.tensor(5.0).log() * expected["delta_l"]  # unclamped log
+    _check(out, expected)
+    assert out["lambda"] == 1.0
+
+
+def test_the_critic_gradient_is_the_hand_derivative():
+    """d loss_lyapunov / d b for the squared form: mean((L - y) * 2 raw) (target fixed)."""
+    spec = LyapunovSpec(form="squared", alpha=0.1)
+    loss = _loss(spec, "lac")
+    data = _data()
+    loss(data)["loss_lyapunov"].backward()
+    obs, action = data["observation"], data["action"]
+    raw = torch.cat([obs, action], -1) @ W.T + B
+    value = (raw**2).sum(-1, keepdim=True)
+    nobs = data["next", "observation"]
+    next_target = _hand_l(nobs, nobs @ A.T + A0, spec, W_TARGET, B_TARGET)
+    target = data["next", "cost"] + 0.99 * (1 - data["next", "terminated"].float()) * next_target
+    grad_b = ((value - target) * 2 * raw).mean(0)
+    torch.testing.assert_close(loss.lyapunov_network_params["module", "bias"].grad, grad_b)
