@@ -188,6 +188,8 @@ def test_ema_checkpoint_round_trip_keeps_weights_decay_and_use_ema(tmp_path):
         new = dict(loaded.noise_model.named_parameters())[n].detach()
         torch.testing.assert_close(p, decay * old[n] + (1 - decay) * new, rtol=1e-6, atol=1e-7)
         torch.testing.assert_close(p, dict(proposer.ema.module.named_parameters())[n])
+
+
 @pytest.mark.parametrize(
     ("kwargs", "argument"),
     [
