@@ -2,14 +2,14 @@
 
 Each test scripts the replies: ``server.replies`` is a list of callables ``(request_body) ->
 (status, body_dict)`` consumed one per request (the last one repeats). Every request's JSON body
-and headers are kept in ``server.requests``.
+and headers are kept in ``server.requests``. A reply's ``delay`` is waited on an event that the
+fixture sets at teardown, so a server "sleeping" 30 s does not hold up the test's end.
 """
 
 from __future__ import annotations
 
 import json
 import threading
-import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import pytest
@@ -26,11 +26,11 @@ def completion(content=None, tool_arguments=None):
 
 def reply(status=200, content=None, tool_arguments=None, delay=0.0):
     def respond(body):
-        time.sleep(delay)
         if status != 200:
             return status, {"error": {"message": content or "error", "code": status}}
         return 200, completion(content, tool_arguments)
 
+    respond.delay = delay  # waited by the handler (interruptible at teardown)
     return respond
 
 
@@ -49,6 +49,7 @@ class _Handler(BaseHTTPRequestHandler):
             }
         )
         respond = server.replies.pop(0) if len(server.replies) > 1 else server.replies[0]
+        server.release.wait(getattr(respond, "delay", 0.0))
         status, payload = respond(body)
         data = json.dumps(payload).encode()
         try:
@@ -66,10 +67,12 @@ def chat_server():
     server = ThreadingHTTPServer(("127.0.0.1", 0), _Handler)
     server.daemon_threads = True
     server.requests, server.replies = [], [reply(content="{}")]
+    server.release = threading.Event()  # set at teardown: ends every pending delay
     server.reply = reply  # tests script replies with chat_server.reply(...)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread = threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True)
     thread.start()
     server.base_url = f"http://127.0.0.1:{server.server_address[1]}/v1"
     yield server
+    server.release.set()
     server.shutdown()
     server.server_close()

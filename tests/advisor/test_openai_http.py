@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from torchrl_auv.advisor import AdvisorTrigger, OpenAICompatibleAdvisor
+from torchrl_auv.advisor import AdvisorTrigger, OpenAICompatibleAdvisor, openai_compatible
 from torchrl_auv.objectives import LyapunovSpec
 
 SECRET = "sk-test-DO-NOT-LOG-4242"
@@ -70,9 +70,7 @@ def test_success_uses_the_json_schema_and_applies_the_decision(chat_server, tmp_
     assert "squared" in body["messages"][1]["content"]  # the form library is in the prompt
 
 
-def test_500_then_tool_call_fallback_and_the_working_strategy_goes_first(
-    chat_server, tmp_path, caplog, secret_key
-):
+def test_500_then_tool_call_fallback(chat_server, tmp_path, caplog, secret_key):
     chat_server.replies = [
         chat_server.reply(500, LLAMA_500),
         chat_server.reply(tool_arguments=GOOD),
@@ -81,7 +79,53 @@ def test_500_then_tool_call_fallback_and_the_working_strategy_goes_first(
     assert decision.accepted and decision.source.endswith(":tool")
     assert "HTTP 500 for json_schema" in decision.reasons[0] and LLAMA_500 in decision.reasons[0]
     assert loss.spec.form == "squared" and record["reasons"] == list(decision.reasons)
-    assert chat_server.requests[1]["body"]["tool_choice"]["function"]["name"]
+    assert [strategy_of(r["body"]) for r in chat_server.requests] == ["json_schema", "tool"]
+
+
+def strategy_of(body):
+    """Which structured-output strategy a request body asks for (OpenAI wire format)."""
+    if "tools" in body or "tool_choice" in body:
+        assert body["tool_choice"]["function"]["name"] == body["tools"][0]["function"]["name"]
+        return "tool"
+    return body.get("response_format", {}).get("type", "text")
+
+
+FIRST_CONSULTATION = {  # the replies after which `strategy` is the first that worked
+    "tool": [(500, LLAMA_500, None), (200, None, GOOD)],
+    "json_object": [(500, LLAMA_500, None), (400, "no tools", None), (200, GOOD, None)],
+    "text": [(500, LLAMA_500, None), (400, "no tools", None), (200, "not json", None),
+             (200, f"Sure: {GOOD}", None)],
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("strategy", list(FIRST_CONSULTATION))
+def test_the_working_strategy_goes_first_next_time(chat_server, secret_key, strategy):
+    """Second consultation against a server that takes every strategy: its first (and only)
+    request uses the strategy that worked the first time, not json_schema."""
+    advisor = OpenAICompatibleAdvisor(chat_server.base_url, "fake-model",
+                                      api_key_env="TEST_ADVISOR_KEY", timeout=10.0,
+                                      max_retries=0)  # fmt: skip
+    chat_server.replies = [
+        chat_server.reply(status, content, tool_arguments=tool)
+        for status, content, tool in FIRST_CONSULTATION[strategy]
+    ]
+    first = advisor.propose("hold depth", None, CURRENT)
+    n = len(FIRST_CONSULTATION[strategy])
+    assert first.accepted and first.source == f"openai:fake-model:{strategy}"
+    assert len(chat_server.requests) == n
+    assert strategy_of(chat_server.requests[0]["body"]) == "json_schema"
+
+    def any_strategy(body):  # a server that accepts every strategy
+        if "tools" in body:
+            return chat_server.reply(tool_arguments=GOOD)(body)
+        return chat_server.reply(content=GOOD)(body)
+
+    chat_server.replies = [any_strategy]
+    second = advisor.propose("hold depth", None, CURRENT)
+    assert second.accepted and second.source == f"openai:fake-model:{strategy}"
+    assert second.reasons == ()  # nothing failed: the remembered strategy was tried first
+    assert len(chat_server.requests) == n + 1
+    assert strategy_of(chat_server.requests[n]["body"]) == strategy
 
 
 def test_json_object_then_text_fallbacks(chat_server, tmp_path, caplog, secret_key):
@@ -121,43 +165,84 @@ def test_unknown_form_is_rejected(chat_server, tmp_path, caplog, secret_key):
     assert "unknown form" in record["reasons"][0] and record["raw_answer"] == answer
 
 
-def test_timeout_keeps_the_spec_within_the_timeout(chat_server, tmp_path, caplog, secret_key):
-    chat_server.replies = [chat_server.reply(content=GOOD, delay=3.0)]
+def test_timeout_keeps_the_spec_and_ends_the_consultation(chat_server, tmp_path, caplog,
+                                                           secret_key):  # fmt: skip
+    """A server that would answer after 30 s, a 0.5 s timeout: one request, the spec kept, back
+    well before the server would have answered (a bound no loaded machine comes near)."""
+    chat_server.replies = [chat_server.reply(content=GOOD, delay=30.0)]
     start = time.perf_counter()
     decision, loss, record = consult(chat_server.base_url, tmp_path, caplog, timeout=0.5)
-    assert time.perf_counter() - start < 2.0 and len(chat_server.requests) == 1
+    assert time.perf_counter() - start < 15.0 and record["latency_s"] < 15.0
+    assert len(chat_server.requests) == 1  # a timeout ends the consultation at once
     assert not decision.accepted and loss.spec == CURRENT
-    assert record["reasons"][0].startswith("timeout after 0.5 s") and record["latency_s"] < 2.0
+    assert record["reasons"] == ["timeout after 0.5 s (json_schema)"]
 
 
 def test_the_timeout_bounds_the_whole_consultation(chat_server, tmp_path, caplog, secret_key):
-    """A quick 500 and then a slow fallback: the two requests share one deadline."""
+    """A 500 after 0.5 s, then a fallback that answers after 2.6 s, within a 3 s timeout.
+
+    One deadline for the consultation leaves the fallback at most 3 - 0.5 = 2.5 s, less than the
+    server's 2.6 s, so it must time out however slow the machine; a fresh 3 s per request would
+    have let it answer."""
     chat_server.replies = [
-        chat_server.reply(500, LLAMA_500),
-        chat_server.reply(content=GOOD, delay=3.0),
+        chat_server.reply(500, LLAMA_500, delay=0.5),
+        chat_server.reply(content=GOOD, delay=2.6),
     ]
-    start = time.perf_counter()
-    _, loss, record = consult(chat_server.base_url, tmp_path, caplog, timeout=1.0)
-    assert time.perf_counter() - start < 1.8 and len(chat_server.requests) == 2
-    assert record["reasons"][0].startswith("HTTP 500") and record["reasons"][1].startswith(
-        "timeout"
-    )
-    assert loss.spec == CURRENT
+    decision, loss, record = consult(chat_server.base_url, tmp_path, caplog, timeout=3.0)
+    assert len(chat_server.requests) == 2
+    assert [strategy_of(r["body"]) for r in chat_server.requests] == ["json_schema", "tool"]
+    assert record["reasons"][0].startswith("HTTP 500 for json_schema")
+    assert record["reasons"][1:] == ["timeout after 3 s (tool)"]
+    assert not decision.accepted and loss.spec == CURRENT and record["latency_s"] < 15.0
 
 
-def test_connection_refused_keeps_the_spec(tmp_path, caplog, secret_key):
+class _VirtualClock:
+    """Stands in for ``time`` in the advisor module: ``sleep`` advances the clock at once."""
+
+    def __init__(self):
+        self.offset, self.sleeps = 0.0, []
+
+    def monotonic(self):
+        return time.monotonic() + self.offset
+
+    def sleep(self, seconds):
+        self.sleeps.append(seconds)
+        self.offset += seconds
+
+
+def test_connection_refused_keeps_the_spec(tmp_path, caplog, secret_key, monkeypatch):
     with socket.socket() as s:  # a port nothing listens on
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    decision, loss, record = consult(f"http://127.0.0.1:{port}/v1", tmp_path, caplog)
+    url = f"http://127.0.0.1:{port}/v1"
+    decision, loss, record = consult(url, tmp_path, caplog)
     assert not decision.accepted and loss.spec == CURRENT
     assert record["reasons"][0].startswith("connection failed")
-    retrying = OpenAICompatibleAdvisor(
-        f"http://127.0.0.1:{port}/v1", "m", timeout=5.0, max_retries=2
-    )
-    start = time.perf_counter()
-    assert not retrying.propose("x", None, CURRENT).accepted
-    assert 1.4 < time.perf_counter() - start < 5.0  # two back-offs (0.5 s, 1 s) within the deadline
+
+    clock = _VirtualClock()  # back-offs cost no wall time and no machine load can stretch them
+    monkeypatch.setattr(openai_compatible, "time", clock)
+
+    def attempts_of(advisor):
+        calls = []
+        request = advisor._request
+        monkeypatch.setattr(advisor, "_request", lambda *a: calls.append(1) or request(*a))
+        return calls
+
+    # max_retries retries, each after a back-off, all within the timeout
+    retrying = OpenAICompatibleAdvisor(url, "m", timeout=30.0, max_retries=2)
+    calls = attempts_of(retrying)
+    decision = retrying.propose("x", None, CURRENT)
+    assert not decision.accepted and decision.reasons[0].startswith("connection failed")
+    assert len(calls) == 1 + 2 and len(clock.sleeps) == 2
+    assert all(s > 0 for s in clock.sleeps) and sum(clock.sleeps) <= 30.0
+    # a short timeout ends the retries early: never sleeps past the deadline
+    clock.sleeps.clear()
+    hurried = OpenAICompatibleAdvisor(url, "m", timeout=1.0, max_retries=50)
+    calls = attempts_of(hurried)
+    decision = hurried.propose("x", None, CURRENT)
+    assert not decision.accepted and decision.form == CURRENT.form
+    assert decision.reasons[0].startswith(("timeout after 1 s", "connection failed"))
+    assert 1 <= len(calls) < 51 and sum(clock.sleeps) <= 1.0 + 1e-9
 
 
 def test_bad_arguments_name_the_argument():

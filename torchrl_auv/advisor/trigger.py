@@ -14,7 +14,9 @@ previous consultation. An accepted decision that differs from the loss's spec is
 frame, trigger, task text, feedback, the spec before, the raw answer, the parsed decision,
 whether it was applied, the reasons and the latency. With a TorchRL ``WandbLogger`` the log is
 also sent as a ``wandb.Table`` (``advisor/decisions``); any TorchRL logger gets
-``advisor/alpha`` and ``advisor/form_index`` scalars.
+``advisor/alpha`` and ``advisor/form_index`` scalars (the spec in force after the consultation;
+the index is the form's place in :data:`~torchrl_auv.advisor.FORM_ORDER`, gentle to
+aggressive: log 0, softplus 1, squared 2).
 """
 
 from __future__ import annotations
