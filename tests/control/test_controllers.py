@@ -11,10 +11,16 @@ from torchrl_auv.control import make_controller, wrap_angle
 from torchrl_auv.control.scenarios import simulate, tracking_errors, tracking_schedule
 
 NAMES = ("s_surface", "pid", "smc")
-# Documented closed-loop bounds for a 90 deg heading step and a 10 m depth step (2 m -> 12 m)
-# at 1200 rpm in still water: (heading settling s to 2 deg, heading overshoot deg,
-# depth settling s to 0.5 m, depth overshoot m); measured 61/4.7/64/0.73 (s_surface),
-# 52/2.8/21/0.24 (pid), 37/21/24/0.00 (smc).
+# Regression bounds, not specification bounds: neither the paper nor shared/spec/ states
+# step-response requirements. 90 deg heading step and 10 m depth step (2 m -> 12 m) at 1200 rpm
+# in still water: (heading settling s to 2 deg, heading overshoot deg, depth settling s to
+# 0.5 m, depth overshoot m). Each bound is the default gains' own measured value (the table in
+# torchrl_auv/control/scenarios.py, re-measured when labelled: the same) plus a margin:
+#   s_surface  measured 61 / 4.7 / 64 / 0.73  -> bound +31 % / +70 % / +25 % / +37 %
+#   pid        measured 52 / 2.8 / 21 / 0.24  -> bound +35 % / +79 % / +90 % / +108 %
+#   smc        measured 37 / 21 / 24 / 0.00   -> bound +35 % / +19 % / +67 % / 0.5 m absolute
+# They catch regressions of the tuned controllers; they do not test the controllers' formulas
+# (tests/control/test_s_surface.py checks eq. 17 against hand calculations).
 BOUNDS = {
     "s_surface": (80.0, 8.0, 80.0, 1.0),
     "pid": (70.0, 5.0, 40.0, 0.5),
@@ -46,6 +52,10 @@ def test_step_response_settles_with_bounded_overshoot(name):
 
 
 def test_all_controllers_stay_bounded_for_300_s_in_very_extreme_sea():
+    """Sanity / regression bounds, not from the spec or the paper. Measured maxima over the
+    three controllers: body speed 3.29 m/s (vehicle plus the 1 m/s 'ves' current and wave
+    orbital velocity; bound 3.5 = +6 %), |pitch| 20 deg (bound 45 deg), mean |depth error|
+    1.9 m (bound 5 m)."""
     for name in NAMES:
         trace = simulate(
             make_controller(name),

@@ -10,13 +10,22 @@ import torch
 from torchrl_auv.iout import IoUTConfig, link_rate
 
 
-def _scalar_rate(d: float, f: float, model: str, power: float = 0.09, sl_const: float = 170.77):
-    """The spec's formulas, term by term, in plain python (f in kHz, d in m)."""
+def _scalar_rate(
+    d: float,
+    f: float,
+    model: str,
+    power: float = 0.09,
+    sl_const: float = 170.77,
+    s: float = 0.5,
+    w: float = 0.0,
+):
+    """The spec's formulas, term by term, in plain python (f in kHz, d in m, shipping activity
+    s in [0, 1], wind w in m/s; noise PSDs of Coates / Stojanovic in dB re uPa per Hz)."""
     bandwidth = 1000.0
     log_f = math.log10(f)
     turbulence = 17.0 - 30.0 * log_f
-    shipping = 40.0 + 20.0 * (0.5 - 0.5) + 26.0 * log_f - 60.0 * math.log10(f + 0.03)
-    wind = 50.0 + 7.5 * math.sqrt(0.0) + 20.0 * log_f - 40.0 * math.log10(f + 0.4)
+    shipping = 40.0 + 20.0 * (s - 0.5) + 26.0 * log_f - 60.0 * math.log10(f + 0.03)
+    wind = 50.0 + 7.5 * math.sqrt(w) + 20.0 * log_f - 40.0 * math.log10(f + 0.4)
     thermal = -15.0 + 20.0 * log_f
     psd = sum(10.0 ** (n / 10.0) for n in (turbulence, shipping, wind, thermal))
     noise = 10.0 * math.log10(bandwidth * psd)
@@ -75,6 +84,26 @@ def test_config_link_parameters_reach_the_formulas():
     assert stronger == pytest.approx(
         max(_scalar_rate(18.0, f, "shannon", power=0.9) for f in (19.5, 20.5)), rel=1e-10
     )
+
+
+@pytest.mark.parametrize("model", ["shannon", "paper"])
+def test_config_shipping_and_wind_reach_the_noise_model(model):
+    d = torch.tensor([5.0, 18.0, 300.0], dtype=torch.float64)
+    for s, w in ((1.0, 0.0), (0.0, 15.0), (0.9, 9.0)):
+        got = link_rate(d, IoUTConfig(rate_model=model, shipping=s, wind_mps=w))
+        for dist, rate in zip(d.tolist(), got.tolist(), strict=True):
+            expected = max(_scalar_rate(dist, f, model, s=s, w=w) for f in (19.5, 20.5))
+            assert rate == pytest.approx(expected, rel=1e-10), (s, w, dist)
+
+
+def test_wind_costs_the_hand_estimated_shannon_rate():
+    # a 15 m/s wind raises the 20 kHz noise by about 7.5 sqrt(15) = 29 dB (wind dominates):
+    # at 18 m the SNR stays high (~88 dB -> ~59 dB), where log2(1 + 10^(SNR/10)) loses
+    # 29 / (10 log10 2) = 9.6 bit/s/Hz over the 1 kHz band
+    d = torch.tensor(18.0, dtype=torch.float64)
+    calm = link_rate(d, IoUTConfig()).item()
+    windy = link_rate(d, IoUTConfig(wind_mps=15.0)).item()
+    assert (calm - windy) / 1000.0 == pytest.approx(29.0 / (10 * math.log10(2)), abs=0.2)
 
 
 def test_unknown_rate_model_is_rejected():

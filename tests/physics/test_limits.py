@@ -46,6 +46,21 @@ def test_diverged_flags():
     assert diverged(eta, nu, act)[0].item()
 
 
+def test_diverged_flags_roll_beyond_its_limit():
+    """Documented: |roll| beyond ``max_abs_roll`` (default 80 deg) is absurd, either side."""
+    eta = torch.zeros(6, 6)
+    eta[:, 3] = torch.tensor([85.0, -85.0, 79.0, -79.0, 0.0, 120.0]).deg2rad()
+    nu = torch.zeros(6, 6)
+    assert diverged(eta, nu).tolist() == [True, True, False, False, False, True]
+    # a custom limit: 35 deg is beyond 30 deg, 25 deg is not; pitch and rates stay quiet
+    eta2 = torch.zeros(2, 6)
+    eta2[:, 3] = torch.tensor([35.0, -25.0]).deg2rad()
+    got = diverged(eta2, torch.zeros(2, 6), max_abs_roll=math.radians(30))
+    assert got.tolist() == [True, False]
+    with pytest.raises(ValueError, match="max_abs_roll"):
+        diverged(eta2, torch.zeros(2, 6), max_abs_roll=0.0)
+
+
 def test_bad_arguments():
     with pytest.raises(ValueError, match="seabed_depth"):
         depth_limits(torch.zeros(6), torch.zeros(6), 0.0)
