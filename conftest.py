@@ -76,21 +76,32 @@ def _seed_and_restore_rng(request: pytest.FixtureRequest):
     torch.random.set_rng_state(torch_state)
 
 
+def _numpy_state_equal(a: tuple, b: tuple) -> bool:
+    """Whole legacy numpy RNG states: name, key array, position, gaussian cache."""
+    return a[0] == b[0] and np.array_equal(a[1], b[1]) and a[2:] == b[2:]
+
+
 class GlobalRNGGuard:
-    """Context manager asserting that the wrapped code never draws from torch's global RNG."""
+    """Context manager asserting that the wrapped code never draws from a global RNG (torch's,
+    numpy's legacy one or python's ``random``): the whole state of each is compared, so a
+    single draw is caught (numpy's key array alone changes only every 624 draws)."""
 
     def __enter__(self) -> GlobalRNGGuard:
-        self._state = torch.random.get_rng_state().clone()
-        self._np_state = np.random.get_state()[1].copy()
+        self._torch = torch.random.get_rng_state().clone()
+        self._numpy = np.random.get_state()
+        self._python = random.getstate()
         return self
 
     def __exit__(self, *exc) -> None:
         if exc[0] is None:
-            assert torch.equal(torch.random.get_rng_state(), self._state), (
+            assert torch.equal(torch.random.get_rng_state(), self._torch), (
                 "code under test drew from torch's global RNG; pass a torch.Generator instead"
             )
-            assert np.array_equal(np.random.get_state()[1], self._np_state), (
+            assert _numpy_state_equal(np.random.get_state(), self._numpy), (
                 "code under test drew from numpy's global RNG"
+            )
+            assert random.getstate() == self._python, (
+                "code under test drew from python's global random module"
             )
 
 
