@@ -127,7 +127,7 @@ def train(env_name="pendulum", loss_name="lac", seed=0, frames=40_000, form="sof
                           init_random_frames=init_random_frames,
                           auto_register_policy_transforms=False)  # fmt: skip
     buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(frames), batch_size=batch_size)
-    returns, last = [], {}
+    returns, last, updates = [], {}, 0
     start = time.perf_counter()
     for data in collector:
         done = data["next", "done"].squeeze(-1)
@@ -142,6 +142,7 @@ def train(env_name="pendulum", loss_name="lac", seed=0, frames=40_000, form="sof
             total.backward()
             optim.step()
             updater.step()
+            updates += 1
         last = {k: round(float(v), 4) for k, v in out.items() if not k.startswith("loss")}
     collector.shutdown()
     tail = returns[-10:]
@@ -153,6 +154,7 @@ def train(env_name="pendulum", loss_name="lac", seed=0, frames=40_000, form="sof
         "form": form,
         "alpha": alpha,
         "episodes": len(returns),
+        "updates": updates,
         "last10_mean_return": round(sum(tail) / max(len(tail), 1), 1),
         "returns": [round(r, 1) for r in returns],
         "train_seconds": round(time.perf_counter() - start),

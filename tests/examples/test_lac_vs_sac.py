@@ -8,6 +8,7 @@ AUVTrackingEnv experiment at ``es``; they print every summary (run with ``-s`` t
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -38,14 +39,29 @@ def run_all(jobs: list[tuple[str, ...]]) -> list[dict]:
         return list(pool.map(lambda argv: run(*argv), jobs))
 
 
+def expected_updates(frames: int, batch: int, random_frames: int = 1000) -> int:
+    """One update per collected frame, from the batch that brings the buffer to >= 1,000."""
+    return sum(batch for k in range(1, frames // batch + 1) if k * batch >= random_frames)
+
+
 def test_the_loop_runs_on_both_envs():
     pend, track = run_all([
         ("--env", "pendulum", "--loss", "lac", "--frames", "1500"),
         ("--env", "tracking", "--loss", "sac", "--frames", "1600"),
     ])  # fmt: skip
-    assert pend["episodes"] == 7 and pend["lambda"] <= 1.0 and pend["beta"] > 0
-    assert pend["returns"][0] < 0
-    assert 0 <= track["eval_heading_error_rad"] <= 3.1416 and track["eval_depth_error_m"] >= 0
+    # 200-step Pendulum episodes; 100 frames per batch
+    assert pend["episodes"] == 1500 // 200 and pend["updates"] == expected_updates(1500, 100)
+    # Pendulum's cost per step is th^2 + 0.1 thdot^2 + 0.001 u^2 <= pi^2 + 0.1 * 8^2 + 0.001 * 2^2
+    worst = -200 * (math.pi**2 + 6.4 + 0.004)
+    assert all(worst <= r < 0 for r in pend["returns"]) and len(set(pend["returns"])) > 1
+    # tracking: 16 envs x 25 steps per batch; 100 steps per env < max_steps: no episode ends
+    assert track["updates"] == expected_updates(1600, 400) and track["episodes"] == 0
+    # the evaluation's errors and its return obey the env card's cost formula (one reference
+    # per episode, 120 decisions): return = -120 (|e_psi|/pi + |e_z|/10 + |e_u|/2)
+    cost = (track["eval_heading_error_rad"] / math.pi + track["eval_depth_error_m"] / 10
+            + track["eval_speed_error_mps"] / 2)  # fmt: skip
+    assert track["eval_return"] == pytest.approx(-120 * cost, abs=0.02)
+    assert track["eval_diverged"] == 0.0
 
 
 @pytest.mark.slow
