@@ -64,6 +64,19 @@ def test_seabed_lookup_is_bilinear_and_clamped():
         seabed_depth(terrain, x, y[:, :2], cfg)
 
 
+def test_a_nan_position_has_a_nan_seabed_and_leaves_the_others_alone():
+    """A diverged vehicle (NaN x or y) gets NaN depth, not a garbage grid index."""
+    cfg = IoUTConfig()
+    terrain = make_terrain(cfg, (2,), generator=_gen(1), dtype=torch.float64)
+    x = torch.tensor([[float("nan"), 0.0, 50.0], [10.0, float("nan"), 200.0]], dtype=torch.float64)
+    y = torch.tensor([[0.0, float("nan"), 50.0], [10.0, float("nan"), 200.0]], dtype=torch.float64)
+    got = seabed_depth(terrain, x, y, cfg)
+    lost = x.isnan() | y.isnan()
+    assert got[lost].isnan().all() and not got[~lost].isnan().any()
+    finite_x, finite_y = x.nan_to_num(0.0), y.nan_to_num(0.0)
+    torch.testing.assert_close(got[~lost], seabed_depth(terrain, finite_x, finite_y, cfg)[~lost])
+
+
 def test_nodes_lie_on_the_seabed_with_spec_rates_and_fill():
     cfg = IoUTConfig()
     g = _gen(3)

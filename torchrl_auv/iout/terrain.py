@@ -93,7 +93,8 @@ def seabed_depth(
         config: the configuration the terrain was made with (area size).
 
     Returns:
-        Seabed depth (m), shaped like ``x``; positions outside the area are clamped onto it.
+        Seabed depth (m), shaped like ``x``; positions outside the area are clamped onto it,
+        a NaN coordinate (a diverged vehicle) gives NaN.
 
     Examples:
         >>> cfg = IoUTConfig()
@@ -112,8 +113,9 @@ def seabed_depth(
         )
     flat_x = x.reshape(*batch, -1)
     flat_y = y.reshape(*batch, -1)
-    u = (flat_x / config.area_m[0] * (g_pts - 1)).clamp(0.0, g_pts - 1)
-    v = (flat_y / config.area_m[1] * (g_pts - 1)).clamp(0.0, g_pts - 1)
+    lost = flat_x.isnan() | flat_y.isnan()  # a diverged vehicle: NaN depth, not a bad index
+    u = (flat_x.nan_to_num(0.0) / config.area_m[0] * (g_pts - 1)).clamp(0.0, g_pts - 1)
+    v = (flat_y.nan_to_num(0.0) / config.area_m[1] * (g_pts - 1)).clamp(0.0, g_pts - 1)
     i0 = u.floor().clamp(max=g_pts - 2).long()
     j0 = v.floor().clamp(max=g_pts - 2).long()
     fu, fv = u - i0, v - j0
@@ -128,4 +130,4 @@ def seabed_depth(
         + (1 - fu) * fv * at(i0, j0 + 1)
         + fu * fv * at(i0 + 1, j0 + 1)
     )
-    return depth.reshape(x.shape)
+    return depth.masked_fill(lost, float("nan")).reshape(x.shape)
