@@ -118,12 +118,12 @@ class VehicleStack:
         decision_steps: physics steps per decision.
         compile: run the physics steps through ``torch.compile``, ``unroll`` steps per
             compiled call (one compilation per batch shape, sea state and controller: about
-            100 s on a 2-core CPU with ``unroll=5``, about 10 s from inductor's on-disk cache
+            37 s on a 2-core CPU with ``unroll=5``, about 5 s from inductor's on-disk cache
             afterwards; then 5x faster at batch 1, 3-4x at batch 256; see
             ``benchmarks/bench_envs.py``).
         unroll: physics steps per compiled call (a divisor of ``decision_steps``); larger
-            values cut per-call overhead but compile for longer (1: ~27 s, 5: ~100 s,
-            20: over 5 minutes).
+            values cut per-call overhead but compile for longer (cold cache, measured at
+            batch 1: unroll 1 ~13 s, 5 ~37 s).
 
     Examples:
         >>> from torchrl_auv.control import make_controller
@@ -181,10 +181,12 @@ class VehicleStack:
         mean, cov = self.localiser.init(eta[..., :3], position_sigma=position_sigma)
         rot = rotation_matrix(eta[..., 3:])
         mean[..., 3:] = (rot @ nu[..., :3].unsqueeze(-1)).squeeze(-1)
+        # contiguous, like decide's output (else batch [1] recompiles the compiled steps)
+        heading = eta[..., 5].clone(memory_format=torch.contiguous_format)
         return TensorDict(
             {
                 "truth": {"eta": eta, "nu": nu, "actuators": actuators},
-                "kf": {"mean": mean, "cov": cov, "heading": eta[..., 5].clone()},
+                "kf": {"mean": mean, "cov": cov, "heading": heading},
                 "controller": self.controller.init_memory(shape, dtype=eta.dtype),
             },
             batch_size=shape,
@@ -259,7 +261,12 @@ class VehicleStack:
             **{k: here(sea_state[k]) for k in _CURRENT_KEYS},
         }
         zero = torch.zeros(shape, dtype=dtype, device=device)
-        sums = dict.fromkeys(DECISION_STATS[1:], zero)
+        # distinct tensors (aliased inputs would recompile the compiled steps on the next call)
+        sums = {k: torch.zeros_like(zero) for k in DECISION_STATS[1:]}
+        # the filter's and the vehicle's constant tensors are cached on first use: fill the
+        # caches before a compiled call (filling them while tracing would recompile on the next)
+        self.localiser._matrices(self.dt, dtype, device)
+        remus100.DEFAULT_PARAMS.tensors(dtype, device)
         run = self._compiled_steps() if self.compile else self._steps
         unroll = self.unroll if self.compile else steps
         for k in range(0, steps, unroll):
