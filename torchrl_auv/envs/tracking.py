@@ -33,6 +33,7 @@ OBS_DIM = 16
 RPM_SCALE = 380.0  # rpm per unit action: n = 380 (a2 + 3), 760-1520 rpm
 DEPTH_STEP = 0.8  # m per unit action (setpoint change)
 HEADING_STEP = 0.15  # rad per unit action (setpoint change)
+DIVERGENCE_COST = 10.0  # cost of the decision that ends in a diverged state
 
 
 class AUVTrackingEnv(EnvBase):
@@ -68,7 +69,9 @@ class AUVTrackingEnv(EnvBase):
     the setpoints on the current pose, 1200 rpm; a fresh ocean per episode.
 
     **Episode end.** ``terminated`` when the divergence guard fires (non-finite or absurd
-    state); ``truncated`` after ``max_steps`` decisions. ``done = terminated | truncated``.
+    state; that decision costs ``DIVERGENCE_COST`` = 10, an observation with non-finite
+    entries is zeroed); ``truncated`` after ``max_steps`` decisions.
+    ``done = terminated | truncated``.
 
     **Other keys.** ``("truth", "eta"|"nu"|"actuators")`` (true state, for metrics and plots;
     policies must not read it), ``("kf", "mean"|"cov")``, ``"setpoint"``, ``"reference"``,
@@ -107,10 +110,10 @@ class AUVTrackingEnv(EnvBase):
     ) -> None:
         self.sea = ocean.get_sea_state(sea_state)
         self.controller = controller_from_name(controller)
-        if max_steps < 1:
-            raise ValueError(f"max_steps must be >= 1, got {max_steps}")
-        if segment_seconds <= 0:
-            raise ValueError(f"segment_seconds must be > 0, got {segment_seconds}")
+        if not (isinstance(max_steps, int) and max_steps >= 1):
+            raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+        if not (math.isfinite(segment_seconds) and segment_seconds > 0):
+            raise ValueError(f"segment_seconds must be finite and > 0, got {segment_seconds}")
         super().__init__(batch_size=torch.Size(batch_size), device=device)
         self.dt = 0.05
         self.decision_steps = 20
@@ -259,7 +262,7 @@ class AUVTrackingEnv(EnvBase):
             + (ref[..., 2] - nu[..., 0]).abs() / 2.0
         ).unsqueeze(-1)
         bad = diverged(eta, nu, act).unsqueeze(-1)
-        cost = torch.where(bad, torch.full_like(cost, 10.0), cost).to(torch.float32)
+        cost = torch.where(bad, torch.full_like(cost, DIVERGENCE_COST), cost).to(torch.float32)
         out["observation"] = torch.nan_to_num(self._observe(out), nan=0.0, posinf=0.0, neginf=0.0)
         out["cost"] = cost
         out["reward"] = -cost
