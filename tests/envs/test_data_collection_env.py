@@ -1,6 +1,9 @@
-"""DataCollectionEnv: specs, layouts, determinism, bounds, metrics, expert, bad input."""
+"""DataCollectionEnv: specs, layouts, determinism, bounds, metrics, expert, bad input;
+divergence and termination cost, loitering in service, the ASV."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 import torch
@@ -209,3 +212,126 @@ def test_expert_reaches_the_papers_magnitudes_with_the_paper_rate_model():
         mean = final[name].float().mean().item()
         assert paper / 3 <= mean <= 3 * paper, (name, mean)
     assert (final["collisions"] <= 10).all()
+
+
+# -- divergence, loitering, the ASV ------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("key", "index", "value"),
+    [(("truth", "eta"), 0, float("nan")), (("truth", "eta"), 1, float("nan")),
+     (("truth", "nu"), 0, float("inf")), (("truth", "actuators"), 2, float("nan"))],
+)  # fmt: skip
+def test_a_non_finite_auv_terminates_its_scene_and_pays_the_termination_cost(key, index, value):
+    env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=10, termination_cost=37.0)
+    td = env.reset()
+    td[key][0, 1, index] = value  # scene 0, AUV 1
+    td["agents", "action"] = torch.zeros(2, 2, 3)
+    out = env.step(td)["next"]
+    assert out["terminated"].squeeze(-1).tolist() == [True, False]
+    assert out["done"].squeeze(-1).tolist() == [True, False]
+    assert not out["truncated"].any()
+    # the scene's flag for every AUV
+    assert out["agents", "terminated"].squeeze(-1).tolist() == [[True, True], [False, False]]
+    cost, reward = out["agents", "cost"].squeeze(-1), out["agents", "reward"].squeeze(-1)
+    # the AUV that ends the episode: its own terms are undefined (NaN pose), c_term alone
+    assert cost[0, 1].item() == 37.0 and reward[0, 1].item() == -37.0
+    # the others do not pay it and stay finite
+    healthy = torch.tensor([[True, False], [True, True]])
+    assert torch.isfinite(cost[healthy]).all() and (cost[healthy] < 37.0).all()
+    assert (cost[healthy] >= 0).all()
+    assert torch.isfinite(out["agents", "observation"]).all()
+
+
+@pytest.mark.parametrize(
+    ("key", "index", "value"),
+    [(("truth", "nu"), 4, 6.0),  # finite but absurd: a 6 rad/s pitch rate loops the AUV
+     (("truth", "eta"), 0, -60.0)],  # 60 m outside the area (exit margin 50 m)
+)  # fmt: skip
+def test_the_auv_that_ends_the_episode_pays_its_cost_plus_the_termination_cost(key, index, value):
+    costs, rewards = [], []
+    for termination_cost in (0.0, 37.0):
+        env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=10,
+                                termination_cost=termination_cost)  # fmt: skip
+        td = env.reset()
+        td[key][0, 1, index] = value  # scene 0, AUV 1
+        td["agents", "action"] = torch.zeros(2, 2, 3)
+        out = env.step(td)["next"]
+        assert out["terminated"].squeeze(-1).tolist() == [True, False]
+        costs.append(out["agents", "cost"].squeeze(-1))
+        rewards.append(out["agents", "reward"].squeeze(-1))
+    # c_j + c_term for that AUV only; the same state otherwise (same seed)
+    extra = torch.tensor([[0.0, 37.0], [0.0, 0.0]])
+    torch.testing.assert_close(costs[1] - costs[0], extra)
+    torch.testing.assert_close(rewards[1] - rewards[0], -extra)
+    assert torch.isfinite(costs[0]).all() and (costs[0] >= 0).all()
+
+
+def _in_service(env, positions, headings):
+    """A reset state with every AUV (num_auvs=1) in service at ``positions`` (x, y), heading
+    ``headings`` (rad); the compass reads 0.02 rad more, the last heading setpoint is 0.3 rad
+    more."""
+    td = env.reset()
+    batch = len(headings)
+    xy, psi = torch.tensor(positions), torch.tensor(headings)
+    td["truth", "eta"][..., 0, :2] = xy
+    td["truth", "eta"][..., 0, 5] = psi
+    td["kf", "mean"][..., 0, :2] = xy
+    td["kf", "heading"][..., 0] = psi + 0.02
+    td["setpoint"][..., 0, 1] = psi + 0.3
+    td["task", "auvs", "in_service"][:] = True
+    td["task", "auvs", "service_remaining"][:] = 100.0
+    td["agents", "action"] = torch.full((batch, 1, 3), 0.7)  # overridden while in service
+    return td
+
+
+def test_a_serving_auv_loiters_toward_the_area_centre_with_the_heading_lead():
+    """Card: at 760 rpm, heading setpoint = compass heading + 0.5 rad toward the side of the
+    area's centre (+1 starboard: heading increasing in NED), depth setpoint held."""
+    env = DataCollectionEnv(batch_size=[4], seed=0, num_auvs=1, num_sensors=10)
+    # the 200 m x 200 m area's centre is (100, 100); starboard of heading psi is
+    # (-sin psi, cos psi): north-bound at y=20 the centre is to starboard, at y=180 to port
+    positions = [[100.0, 20.0], [100.0, 180.0], [100.0, 20.0], [180.0, 100.0]]
+    headings = [0.0, 0.0, math.pi, math.pi / 2]
+    expected = torch.tensor([1.0, -1.0, -1.0, 1.0])
+    td = _in_service(env, positions, headings)
+    depth_sp = td["setpoint"][..., 0, 0].clone()
+    out = env.step(td)["next"]
+    assert out["loiter_turn"][:, 0].tolist() == expected.tolist()
+    sp = out["setpoint"][:, 0]
+    torch.testing.assert_close(sp[:, 1], torch.tensor(headings) + 0.02 + 0.5 * expected)
+    assert (sp[:, 2] == 760.0).all()
+    torch.testing.assert_close(sp[:, 0], depth_sp)
+    # the vehicle does turn that way: the heading moves with the sign of the turn
+    turned = out["truth", "eta"][:, 0, 5] - torch.tensor(headings)
+    assert (torch.atan2(torch.sin(turned), torch.cos(turned)) * expected > 0.02).all()
+
+
+def test_the_loiter_turn_is_kept_during_a_service_and_zero_outside():
+    env = DataCollectionEnv(batch_size=[2], seed=0, num_auvs=1, num_sensors=10)
+    td = _in_service(env, [[100.0, 20.0], [100.0, 20.0]], [0.0, 0.0])  # geometry says +1
+    td["loiter_turn"][:, 0] = torch.tensor([-1.0, 1.0])  # chosen when the service started
+    td["task", "auvs", "in_service"][1] = False
+    out = env.step(td)["next"]
+    assert out["loiter_turn"][:, 0].tolist() == [-1.0, 0.0]
+    torch.testing.assert_close(out["setpoint"][0, 0, 1], torch.tensor(0.02 - 0.5))
+    # not in service: the card's action mapping, 0.7 -> z + 0.56 m, psi + 0.105 rad, 1406 rpm
+    want = td["setpoint"][1, 0] + torch.tensor([0.8 * 0.7, 0.15 * 0.7, 0.0])
+    want[2] = 380.0 * 3.7
+    torch.testing.assert_close(out["setpoint"][1, 0], want)
+
+
+def test_the_asv_follows_the_fleet_centroid_at_2_m_per_s():
+    env = DataCollectionEnv(batch_size=[2], seed=0, num_auvs=3, num_sensors=10)
+    td = env.reset()
+    centroid = td["truth", "eta"][..., :2].mean(-2)
+    td["asv"][0, :2] = centroid[0] + torch.tensor([60.0, -80.0])  # 100 m away
+    td["asv"][1, :2] = centroid[1]  # on station
+    td["agents", "action"] = torch.zeros(2, 3, 3)
+    out = env.step(td)["next"]
+    new_centroid = out["truth", "eta"][..., :2].mean(-2)
+    # far: 2 m (one 1 s decision at 2 m/s) straight toward the fleet's new centroid
+    gap = new_centroid[0] - td["asv"][0, :2]
+    torch.testing.assert_close(out["asv"][0, :2], td["asv"][0, :2] + 2.0 * gap / gap.norm())
+    # near (the fleet moved less than 2 m): on the centroid
+    assert (new_centroid[1] - centroid[1]).norm() < 2.0
+    torch.testing.assert_close(out["asv"][1, :2], new_centroid[1])
+    assert (out["asv"][:, 2] == 0).all()  # at the surface

@@ -1,6 +1,9 @@
-"""AUVTrackingEnv: specs across batch sizes, sea states and controllers; determinism; bounds."""
+"""AUVTrackingEnv: specs, determinism, bounds; the card's cost and reference segments, the USBL
+fix, divergence, bad input."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 import torch
@@ -108,3 +111,103 @@ def test_constructor_seed_equals_set_seed():
     env = AUVTrackingEnv(batch_size=[2], seed=0)
     env.set_seed(5)
     assert (a == env.reset()).all()
+
+
+# -- the env card's cost, reference segments, USBL fix, divergence ------------------------------
+def _card_cost(reference, eta, nu):
+    """The env card: |wrap(psi_ref - psi)|/pi + |z_ref - z|/10 + |u_ref - u|/2 (true state)."""
+    d_psi = reference[..., 1] - eta[..., 5]
+    heading = torch.atan2(torch.sin(d_psi), torch.cos(d_psi)).abs() / math.pi
+    depth = (reference[..., 0] - eta[..., 2]).abs() / 10
+    return heading + depth + (reference[..., 2] - nu[..., 0]).abs() / 2
+
+
+def _constant_action(action):
+    def policy(td):
+        td["action"] = action.expand((*td.batch_size, 3)).clone()
+        return td
+
+    return policy
+
+
+def test_cost_and_observed_reference_follow_the_card_across_segment_boundaries():
+    """segment_seconds=2: the reference (a new row of ``"reference"`` every 2 s of decisions
+    of 1 s) at the end of decision k (t = k + 1 s) is row floor((k + 1) / 2)."""
+    env = AUVTrackingEnv(batch_size=[3], sea_state="es", seed=4, segment_seconds=2.0)
+    td = env.rollout(5, _constant_action(torch.tensor([0.5, -0.3, 0.2])))
+    reference = td["reference"][:, 0]  # [B, segments, 3], fixed for the episode
+    assert not torch.allclose(reference[:, 0], reference[:, 1])  # the rows differ
+    rows = torch.tensor([(k + 1) // 2 for k in range(5)])  # 0, 1, 1, 2, 2
+    ref_now = reference[:, rows]  # [B, T, 3]
+    eta, nu = td["next", "truth", "eta"], td["next", "truth", "nu"]
+    want = _card_cost(ref_now, eta, nu).unsqueeze(-1)
+    torch.testing.assert_close(td["next", "cost"], want, rtol=1e-5, atol=1e-5)
+    torch.testing.assert_close(td["next", "reward"], -want, rtol=1e-5, atol=1e-5)
+    # the policy sees the same reference: observation[0] = (z_ref - z^)/10 with z^ the filter's
+    seen = td["next", "observation"][..., 0] * 10 + td["next", "kf", "mean"][..., 2]
+    torch.testing.assert_close(seen, ref_now[..., 0], rtol=1e-4, atol=1e-4)
+    first = td["observation"][:, 0, 0] * 10 + td["kf", "mean"][:, 0, 2]  # at reset: row 0
+    torch.testing.assert_close(first, reference[:, 0, 0], rtol=1e-4, atol=1e-4)
+
+
+def test_a_usbl_fix_shrinks_the_position_covariance_and_corrects_the_estimate():
+    env = AUVTrackingEnv(batch_size=[2], sea_state="es", seed=2)
+    td = env.reset()
+    td["kf", "mean"][:, :2] += 3.0  # a filter 4.2 m off (1 m sigma): the fix must pull it back
+    td["action"] = torch.zeros(2, 3)
+    g = torch.Generator()
+    g.set_state(env.rng.get_state())
+    out = env.step(td.clone())["next"]
+    # the same decision without the fix, from the public VehicleStack with the same draws;
+    # setpoints by the card with a = 0: depth and heading held, 380 * 3 rpm
+    sp = td["setpoint"]
+    setpoint = torch.stack((sp[:, 0], sp[:, 1], torch.full((2,), 1140.0)), -1)
+    vehicles, _, _ = env.vehicles.decide(
+        td.select("truth", "kf", "controller"), setpoint, td["ocean"], 1000.0, generator=g
+    )
+    torch.testing.assert_close(out["truth", "eta"], vehicles["truth", "eta"])  # same decision
+    prior = vehicles["kf", "cov"][..., :3, :3].diagonal(dim1=-2, dim2=-1)
+    posterior = out["kf", "cov"][..., :3, :3].diagonal(dim1=-2, dim2=-1)
+    # 1 m start sigma, ~0.1 m USBL sigma at ~30 m slant range: the horizontal variance collapses
+    assert (prior[:, :2] > 0.5).all()
+    assert (posterior[:, :2] < 0.1 * prior[:, :2]).all()
+    assert (posterior <= prior + 1e-7).all()  # a fix never adds uncertainty
+    truth = out["truth", "eta"][:, :2]
+    assert ((vehicles["kf", "mean"][:, :2] - truth).norm(dim=-1) > 3.0).all()  # no fix: off
+    assert ((out["kf", "mean"][:, :2] - truth).norm(dim=-1) < 0.5).all()  # fix: back on
+
+
+@pytest.mark.parametrize(
+    ("key", "index", "value"),
+    [(("truth", "eta"), 0, float("nan")), (("truth", "nu"), 0, float("inf")),
+     (("truth", "actuators"), 2, float("nan")),
+     (("truth", "nu"), 4, 6.0)],  # finite but absurd: a 6 rad/s pitch rate loops the vehicle
+)  # fmt: skip
+def test_a_diverged_state_terminates_that_vehicle_only(key, index, value):
+    env = AUVTrackingEnv(batch_size=[2], seed=0)
+    td = env.reset()
+    td[key][0, index] = value
+    td["action"] = torch.zeros(2, 3)
+    out = env.step(td)["next"]
+    assert out["terminated"].squeeze(-1).tolist() == [True, False]
+    assert out["done"].squeeze(-1).tolist() == [True, False]
+    assert not out["truncated"].any()
+    # the card's divergence cost, 10, and reward = -cost
+    assert torch.isfinite(out["cost"]).all() and out["cost"][0].item() == 10.0
+    torch.testing.assert_close(out["reward"], -out["cost"])
+    assert torch.isfinite(out["observation"]).all()
+    # the healthy vehicle is costed by the card's formula, unaffected
+    want = _card_cost(out["reference"][1, 0], out["truth", "eta"][1], out["truth", "nu"][1])
+    torch.testing.assert_close(out["cost"][1, 0], want, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("max_steps", [0, -3, float("nan"), 2.5])
+def test_bad_max_steps_names_the_argument(max_steps):
+    with pytest.raises(ValueError, match="max_steps"):
+        AUVTrackingEnv(max_steps=max_steps)
+
+
+@pytest.mark.parametrize("segment_seconds", [0.0, -5.0, float("nan"), float("inf")])
+def test_bad_segment_seconds_names_the_argument(segment_seconds):
+    with pytest.raises(ValueError, match="segment_seconds"):
+        AUVTrackingEnv(segment_seconds=segment_seconds)

@@ -1,13 +1,27 @@
-"""VehicleStack: the shared per-decision loop (fleet broadcasting, compiled == eager)."""
+"""VehicleStack: the shared per-decision loop (fleet broadcasting, compiled == eager, against a
+hand-written loop of the public pieces); the tracking-error sums."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 import torch
+from tensordict import TensorDict
 
 from torchrl_auv.control import make_controller
-from torchrl_auv.envs.vehicles import VehicleStack
-from torchrl_auv.physics import ocean
+from torchrl_auv.envs.vehicles import (
+    DECISION_STATS,
+    TRACKING_SUMS,
+    VehicleStack,
+    add_tracking_sums,
+    tracking_errors,
+)
+from torchrl_auv.estimation import Localiser, SensorNoise, compass, depth_sensor, dvl
+from torchrl_auv.physics import ocean, remus100
+from torchrl_auv.physics.energy import shaft_power
+from torchrl_auv.physics.limits import depth_limits
+from torchrl_auv.physics.remus100 import rotation_matrix
 
 
 def _fleet(stack, scenes=2, auvs=3):
@@ -76,3 +90,206 @@ def test_compiled_physics_matches_eager():
     for a, b in zip(eager, compiled, strict=True):
         for key in a.keys(True, True):
             torch.testing.assert_close(a[key], b[key], rtol=1e-4, atol=1e-4, msg=str(key))
+
+
+# -- decide against a hand-written loop of the public pieces --------------------------------
+def _angle_error(a, b):
+    """|a - b| wrapped into [0, pi] (rad)."""
+    d = a - b
+    return torch.atan2(torch.sin(d), torch.cos(d)).abs()
+
+
+def _estimate(eta, nu, kf_mean, kf_heading):
+    """What the controller must see (module docstring of vehicles.py): position and NED
+    velocity from the filter, heading from the compass, roll/pitch/rates from the AHRS (true),
+    body velocity = filter NED velocity rotated into the body with that attitude."""
+    attitude = torch.stack((eta[..., 3], eta[..., 4], kf_heading), -1)
+    rot = rotation_matrix(attitude)
+    v_body = torch.einsum("...ji,...j->...i", rot, kf_mean[..., 3:])  # R^T v_ned
+    return torch.cat([kf_mean[..., :3], attitude], -1), torch.cat([v_body, nu[..., 3:]], -1)
+
+
+def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
+    """One decision as a plain loop of the public pieces, with decide's noise: two draws up
+    front from a generator seeded like decide's, ocean ``[steps, 2, *S]`` then sensors
+    ``[steps, *V, 5]`` (DVL xyz, depth, compass)."""
+    g = torch.Generator().manual_seed(seed)
+    shape, scene = vehicles.batch_size, sea_td.batch_size
+    steps, dt, dtype = stack.decision_steps, stack.dt, setpoint.dtype
+    sea_noise = torch.randn((steps, 2, *scene), generator=g, dtype=dtype)
+    sensor_noise = torch.randn((steps, *shape, 5), generator=g, dtype=dtype)
+    noise, loc = SensorNoise(), Localiser(SensorNoise())
+    eta, nu, act = (vehicles["truth", k] for k in ("eta", "nu", "actuators"))
+    mean, cov, heading = (vehicles["kf", k] for k in ("mean", "cov", "heading"))
+    memory = vehicles["controller"]
+    sums = dict.fromkeys(DECISION_STATS[1:], torch.zeros(shape, dtype=dtype))
+    touched = torch.zeros(shape, dtype=torch.bool)
+    for k in range(steps):
+        eta_hat, nu_hat = _estimate(eta, nu, mean, heading)
+        command, memory = stack.controller(setpoint, eta_hat, nu_hat, memory, dt)
+        sea_td = ocean.step_ocean(sea_td, stack.sea, dt, generator=None,
+                                  standard_normal=sea_noise[k])  # fmt: skip
+        fleet_sea = sea_td  # every vehicle of a scene sees the scene's ocean
+        if len(shape) > len(scene):
+            fleet_sea = sea_td.unsqueeze(-1).expand(shape)
+        current = ocean.current_at(fleet_sea, eta[..., :3])
+        eta, nu, act = remus100.step(eta, nu, act, command, current, dt)
+        eta, nu, surface, bed = depth_limits(eta, nu, seabed)
+        touched |= surface | bed
+        mean, cov = loc.predict(mean, cov, dt)
+        draw = sensor_noise[k]
+        heading = compass(eta[..., 5], noise.compass, None, standard_normal=draw[..., 4])
+        attitude = torch.stack((eta[..., 3], eta[..., 4], heading), -1)
+        velocity = dvl(nu, noise.dvl, None, standard_normal=draw[..., :3])
+        depth = depth_sensor(eta[..., 2], noise.depth, None, standard_normal=draw[..., 3])
+        mean, cov = loc.update_onboard(mean, cov, velocity, attitude, depth)
+        # statistics: errors setpoint vs truth; speed relative to the water the step used
+        e_h = _angle_error(setpoint[..., 1], eta[..., 5])
+        e_d = (setpoint[..., 0] - eta[..., 2]).abs()
+        v_ned = (rotation_matrix(eta[..., 3:]) @ nu[..., :3, None])[..., 0]
+        water = torch.stack((current[..., 0] * torch.cos(current[..., 1]),
+                             current[..., 0] * torch.sin(current[..., 1]),
+                             torch.zeros_like(current[..., 0])), -1)  # fmt: skip
+        speed = (v_ned - water).norm(dim=-1)
+        for name, value in (("heading_error_sum", e_h), ("heading_error_sq", e_h**2),
+                            ("depth_error_sum", e_d), ("depth_error_sq", e_d**2),
+                            ("speed_sum", speed),
+                            ("shaft_power_sum", shaft_power(act[..., 2], speed))):  # fmt: skip
+            sums[name] = sums[name] + value
+    out = {("truth", "eta"): eta, ("truth", "nu"): nu, ("truth", "actuators"): act,
+           ("kf", "mean"): mean, ("kf", "cov"): cov, ("kf", "heading"): heading}  # fmt: skip
+    out.update({("controller", k): v for k, v in memory.items()})
+    stats = {"steps": torch.full(shape, float(steps), dtype=dtype), **sums}
+    return out, sea_td, stats, touched
+
+
+def _scenario(shape, dtype=torch.float64):
+    """Vehicles ``shape`` = [V] or [S, n] (per scene): vehicle 0 breaching the surface,
+    vehicle 1 hitting a 10 m seabed, the rest cruising; all with heading and depth errors."""
+    eta = torch.zeros(*shape, 6, dtype=dtype)
+    eta[..., 0] = torch.arange(shape[-1], dtype=dtype) * 40.0
+    eta[..., 1] = 7.0 * torch.arange(math.prod(shape), dtype=dtype).reshape(shape)
+    eta[..., 2] = 10.0
+    eta[..., 5] = torch.linspace(-2.0, 2.5, math.prod(shape), dtype=dtype).reshape(shape)
+    eta[..., 0, 2], eta[..., 0, 4] = 0.02, 0.3  # near the surface, nose up
+    eta[..., 1, 2], eta[..., 1, 4] = 9.9, -0.3  # just above a 10 m seabed, nose down
+    nu = torch.zeros(*shape, 6, dtype=dtype)
+    nu[..., 0] = 1.5
+    act = torch.zeros(*shape, 3, dtype=dtype)
+    act[..., 2] = 1200.0
+    seabed = torch.full(shape, 50.0, dtype=dtype)
+    seabed[..., 1] = 10.0
+    setpoint = torch.stack(
+        (torch.full(shape, 15.0, dtype=dtype), eta[..., 5] + 0.4,
+         torch.full(shape, 1300.0, dtype=dtype)), -1
+    )  # fmt: skip
+    setpoint[..., 0, 0] = 0.0
+    return eta, nu, act, seabed, setpoint
+
+
+@pytest.mark.parametrize(
+    ("shape", "scene", "controller"),
+    [((3,), (3,), "pid"), ((2, 3), (2,), "s_surface"), ((2, 3), (2,), "smc")],
+)
+def test_decide_equals_a_hand_written_loop_of_the_public_pieces(shape, scene, controller):
+    """float64, "es" sea; the filter is offset from the truth so that a controller fed the
+    truth instead of the estimate shows, and the depth clamp acts at surface and seabed."""
+    stack = VehicleStack(ocean.get_sea_state("es"), make_controller(controller))
+    eta, nu, act, seabed, setpoint = _scenario(shape)
+    vehicles = stack.init(eta, nu, act)
+    vehicles["kf", "mean"][..., :3] += torch.tensor([0.8, -0.6, 0.5], dtype=torch.float64)
+    vehicles["kf", "mean"][..., 3] += 0.2
+    vehicles["kf", "heading"] += 0.1
+    vehicles["controller"].apply_(lambda m: m + 0.05)  # non-zero controller memory
+    sea = ocean.reset_ocean(stack.sea, scene, generator=torch.Generator().manual_seed(1),
+                            dtype=torch.float64)  # fmt: skip
+    before = vehicles.clone()
+    got, got_sea, got_stats = stack.decide(
+        vehicles, setpoint, sea, seabed, generator=torch.Generator().manual_seed(7)
+    )
+    want, want_sea, want_stats, touched = _reference_decision(stack, before, setpoint, sea,
+                                                              seabed, seed=7)  # fmt: skip
+    assert touched[..., 0].all() and touched[..., 1].all()  # the depth clamp is exercised
+    assert (vehicles == before).all()  # input left unchanged
+    assert set(got.keys(True, True)) == set(want)
+    for key, value in want.items():
+        torch.testing.assert_close(got[key], value, rtol=1e-6, atol=1e-6, msg=str(key))
+    for key in ("current_speed", "current_direction", "time"):
+        torch.testing.assert_close(got_sea[key], want_sea[key], rtol=1e-6, atol=1e-6)
+    assert set(got_stats.keys()) == set(DECISION_STATS) == set(want_stats)
+    for key, value in want_stats.items():
+        torch.testing.assert_close(got_stats[key], value, rtol=1e-6, atol=1e-6, msg=key)
+
+
+def test_compiled_decide_matches_eager_at_a_small_size():
+    """The compiled path (``compile=True``) on one physics step per call, two decisions of
+    two steps, one vehicle breaching the surface: the same state and statistics as eager."""
+    sea = ocean.get_sea_state("es")
+
+    def run(stack):
+        eta, nu, act, seabed, setpoint = (x[:1] for x in _scenario((2,), dtype=torch.float32))
+        vehicles = stack.init(eta, nu, act)
+        g = torch.Generator().manual_seed(3)
+        sea_td = ocean.reset_ocean(sea, (1,), generator=g)
+        out = []
+        for _ in range(2):
+            vehicles, sea_td, stats = stack.decide(vehicles, setpoint, sea_td, seabed,
+                                                   generator=g)  # fmt: skip
+            out.append((vehicles, sea_td, stats))
+        return out
+
+    controller = make_controller("s_surface")
+    graphs = torch._dynamo.utils.counters["stats"]["unique_graphs"]
+    compiled = run(VehicleStack(sea, controller, decision_steps=2, compile=True, unroll=1))
+    # "one compilation per batch shape, sea state and controller" (VehicleStack's docstring):
+    # four calls, one graph (a recompile on the second call used to triple the compile time)
+    assert torch._dynamo.utils.counters["stats"]["unique_graphs"] - graphs <= 1
+    eager = run(VehicleStack(sea, controller, decision_steps=2, unroll=1))
+    for a_all, b_all in zip(eager, compiled, strict=True):
+        for a, b in zip(a_all, b_all, strict=True):
+            assert set(a.keys(True, True)) == set(b.keys(True, True))
+            for key in a.keys(True, True):
+                torch.testing.assert_close(a[key], b[key], rtol=1e-5, atol=1e-5, msg=str(key))
+
+
+# -- running tracking sums and their mean / std ------------------------------------------------
+def _sums(heading_errors, depth_errors):
+    """TRACKING_SUMS of per-step errors ``[V, steps]`` written out by hand."""
+    h, d = torch.tensor(heading_errors), torch.tensor(depth_errors)
+    return TensorDict(
+        {"steps": torch.full((h.shape[0],), float(h.shape[1])), "heading_error_sum": h.sum(-1),
+         "heading_error_sq": (h * h).sum(-1), "depth_error_sum": d.sum(-1),
+         "depth_error_sq": (d * d).sum(-1), "speed_sum": torch.ones(h.shape[0])},
+        batch_size=[h.shape[0]],
+    )  # fmt: skip
+
+
+def test_tracking_errors_are_the_mean_and_std_of_the_summed_errors():
+    # two decisions of two vehicles; the episode's errors are their concatenation
+    first = ([[0.1, 0.2, 0.3], [0.0, 0.0, 0.0]], [[1.0, 2.0, 3.0], [0.5, 0.5, 0.5]])
+    second = ([[0.6, 0.6, 0.4], [0.2, 0.0, 0.1]], [[0.0, 4.0, 2.0], [0.5, 0.5, 0.5]])
+    running = add_tracking_sums(_sums(*first), _sums(*second))
+    assert set(running.keys()) == set(TRACKING_SUMS)  # speed and power are not tracked
+    torch.testing.assert_close(running["steps"], torch.tensor([6.0, 6.0]))
+    out = tracking_errors(running)
+    for name, index in (("heading", 0), ("depth", 1)):
+        errors = torch.cat([torch.tensor(first[index]), torch.tensor(second[index])], -1)
+        mean = errors.mean(-1)
+        std = ((errors - mean[:, None]) ** 2).mean(-1).sqrt()  # population std
+        torch.testing.assert_close(out[f"{name}_error_mean"], mean)
+        torch.testing.assert_close(out[f"{name}_error_std"], std, atol=1e-4, rtol=1e-4)
+    # hand values: heading of vehicle 0 = [.1 .2 .3 .6 .6 .4]: mean 2.2/6, E[x^2] 1.02/6
+    torch.testing.assert_close(out["heading_error_mean"][0], torch.tensor(2.2 / 6))
+    want = math.sqrt(1.02 / 6 - (2.2 / 6) ** 2)
+    torch.testing.assert_close(out["heading_error_std"][0], torch.tensor(want), atol=1e-4, rtol=0)
+    assert out["depth_error_std"][1].item() == pytest.approx(0.0, abs=1e-3)  # constant errors
+    # float32 sums of a constant 2.9 give E[x^2] - mean^2 slightly below 0: std 0, not NaN
+    out = tracking_errors(_sums([[2.9] * 3], [[3.7] * 3]))
+    for name in ("heading_error_std", "depth_error_std"):
+        assert out[name].item() == pytest.approx(0.0, abs=1e-3), name
+
+
+def test_tracking_errors_are_zero_before_the_first_step():
+    zero = TensorDict({k: torch.zeros(3) for k in TRACKING_SUMS}, batch_size=[3])
+    for value in tracking_errors(zero).values():
+        assert torch.equal(value, torch.zeros(3))
