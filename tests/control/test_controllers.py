@@ -53,9 +53,10 @@ def test_step_response_settles_with_bounded_overshoot(name):
 
 def test_all_controllers_stay_bounded_for_300_s_in_very_extreme_sea():
     """Sanity / regression bounds, not from the spec or the paper. Measured maxima over the
-    three controllers: body speed 3.29 m/s (vehicle plus the 1 m/s 'ves' current and wave
-    orbital velocity; bound 3.5 = +6 %), |pitch| 20 deg (bound 45 deg), mean |depth error|
-    1.9 m (bound 5 m)."""
+    three controllers: body speed 3.53 m/s (vehicle plus the 1 m/s 'ves' current and wave
+    orbital velocity, its vertical part included since spec v2; was 3.29 with the horizontal
+    part only; bound 3.75 = +6 %), |pitch| 20 deg (bound 45 deg), mean |depth error| 2.4 m
+    (was 1.9; bound 5 m)."""
     for name in NAMES:
         trace = simulate(
             make_controller(name),
@@ -68,7 +69,7 @@ def test_all_controllers_stay_bounded_for_300_s_in_very_extreme_sea():
             record_every=20,
         )
         assert torch.isfinite(trace.eta).all() and torch.isfinite(trace.nu).all()
-        assert trace.nu[..., :3].norm(dim=-1).max() < 3.5
+        assert trace.nu[..., :3].norm(dim=-1).max() < 3.75
         assert trace.eta[..., 4].abs().max() < math.radians(45)
         errors = tracking_errors(trace)
         assert (errors["depth_error_mean"] < 5.0).all(), (name, errors)

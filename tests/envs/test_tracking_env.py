@@ -11,6 +11,7 @@ from torchrl.envs import TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
 from torchrl_auv.envs import AUVTrackingEnv, ScriptedExpert, StateActionHistory
+from torchrl_auv.estimation import kf_update, usbl_fix
 
 
 @pytest.mark.parametrize("batch_size", [[], [1], [8]])
@@ -36,7 +37,10 @@ def test_observation_is_the_estimate_not_the_truth():
     td = env.rollout(5)
     estimate, truth = td["next", "kf", "mean"][..., :3], td["next", "truth", "eta"][..., :3]
     assert not torch.equal(estimate, truth)
-    assert (estimate - truth).abs().max() < 2.0  # but a good one
+    # but a good one: horizontally within a few sigma of the ASV's GNSS error (1 m per axis,
+    # the fixes' bias), in depth within centimetres (the depth sensor's 0.05 m, 20 Hz)
+    assert (estimate - truth)[..., :2].norm(dim=-1).max() < 5.0
+    assert (estimate - truth)[..., 2].abs().max() < 0.3
 
 
 def test_expert_tracks_better_than_random_actions():
@@ -150,7 +154,11 @@ def test_cost_and_observed_reference_follow_the_card_across_segment_boundaries()
     torch.testing.assert_close(first, reference[:, 0, 0], rtol=1e-4, atol=1e-4)
 
 
-def test_a_usbl_fix_shrinks_the_position_covariance_and_corrects_the_estimate():
+def test_the_usbl_fix_comes_from_the_asv_with_its_gnss_error_and_pulls_the_estimate():
+    """The env card's fix, by hand: after the decision the ASV's GNSS error steps 1 s
+    (Gauss-Markov, a = e^(-1/60), sigma 1.5 m in es), then one USBL fix of "es" (range 0.5 %,
+    bearing hypot(0.1, 0.5) deg, 5 % dropout) from the ASV 30 m north of the AUV, converted from the
+    ASV's believed position (so biased by the GNSS error, whose variance R includes)."""
     env = AUVTrackingEnv(batch_size=[2], sea_state="es", seed=2)
     td = env.reset()
     td["kf", "mean"][:, :2] += 3.0  # a filter 4.2 m off (1 m sigma): the fix must pull it back
@@ -159,22 +167,41 @@ def test_a_usbl_fix_shrinks_the_position_covariance_and_corrects_the_estimate():
     g.set_state(env.rng.get_state())
     out = env.step(td.clone())["next"]
     # the same decision without the fix, from the public VehicleStack with the same draws;
-    # setpoints by the card with a = 0: depth and heading held, 380 * 3 rpm
+    # setpoints by the card with a = 0: depth and heading held, 380 * 3 rpm; a 1000 m seabed
+    # (the env's is 200 m): no bottom lock in either
     sp = td["setpoint"]
     setpoint = torch.stack((sp[:, 0], sp[:, 1], torch.full((2,), 1140.0)), -1)
     vehicles, _, _ = env.vehicles.decide(
         td.select("truth", "kf", "controller"), setpoint, td["ocean"], 1000.0, generator=g
     )
     torch.testing.assert_close(out["truth", "eta"], vehicles["truth", "eta"])  # same decision
+    a = math.exp(-1.0 / 60.0)
+    gnss = a * td["asv_gnss_error"] + 1.5 * math.sqrt(1 - a * a) * torch.randn(2, 2, generator=g)
+    torch.testing.assert_close(out["asv_gnss_error"], gnss)
+    truth = out["truth", "eta"][:, :3]
+    asv = torch.stack((truth[:, 0] + 30.0, truth[:, 1], torch.zeros(2)), -1)
+    bearing = math.hypot(math.radians(0.1), math.radians(0.5))
+    fix, fix_cov, valid = usbl_fix(truth, asv, 0.005, bearing, g, dropout=0.05,
+                                   asv_error=gnss, asv_error_sigma=1.5)  # fmt: skip
+    assert valid.all()  # this seed loses no fix
+    h = torch.cat([torch.eye(3), torch.zeros(3, 3)], 1)
+    want_mean, want_cov = kf_update(vehicles["kf", "mean"], vehicles["kf", "cov"], fix, h, fix_cov)
+    torch.testing.assert_close(out["kf", "mean"], want_mean)
+    torch.testing.assert_close(out["kf", "cov"], want_cov)
+    # the fix sits on truth + GNSS error, give or take the acoustic noise: ~32 m slant range x
+    # 0.51 deg = 0.28 m per lateral axis (4 sigma: 1.2 m)
+    assert ((fix[:, :2] - truth[:, :2] - gnss).norm(dim=-1) < 1.2).all()
     prior = vehicles["kf", "cov"][..., :3, :3].diagonal(dim1=-2, dim2=-1)
     posterior = out["kf", "cov"][..., :3, :3].diagonal(dim1=-2, dim2=-1)
-    # 1 m start sigma, ~0.1 m USBL sigma at ~30 m slant range: the horizontal variance collapses
+    # prior ~1.25 m^2 against R ~2.25 m^2 (GNSS 1.5 m) + cm^2: posterior = prior R / (prior +
+    # R), about 0.64 of the prior
     assert (prior[:, :2] > 0.5).all()
-    assert (posterior[:, :2] < 0.1 * prior[:, :2]).all()
+    assert (posterior[:, :2] < 0.7 * prior[:, :2]).all()
     assert (posterior <= prior + 1e-7).all()  # a fix never adds uncertainty
-    truth = out["truth", "eta"][:, :2]
-    assert ((vehicles["kf", "mean"][:, :2] - truth).norm(dim=-1) > 3.0).all()  # no fix: off
-    assert ((out["kf", "mean"][:, :2] - truth).norm(dim=-1) < 0.5).all()  # fix: back on
+    before = (vehicles["kf", "mean"][:, :2] - fix[:, :2]).norm(dim=-1)
+    after = (out["kf", "mean"][:, :2] - fix[:, :2]).norm(dim=-1)
+    # pulled towards the fix by the gain prior / (prior + R), about 0.36
+    assert (before > 2.0).all() and (after < 0.75 * before).all()
 
 
 @pytest.mark.parametrize(

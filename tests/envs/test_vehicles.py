@@ -3,6 +3,7 @@ hand-written loop of the public pieces); the tracking-error sums."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -17,7 +18,7 @@ from torchrl_auv.envs.vehicles import (
     add_tracking_sums,
     tracking_errors,
 )
-from torchrl_auv.estimation import Localiser, SensorNoise, compass, depth_sensor, dvl
+from torchrl_auv.estimation import Localiser, SensorNoise, compass, depth_sensor, dvl, kf_update
 from torchrl_auv.physics import ocean, remus100
 from torchrl_auv.physics.energy import shaft_power
 from torchrl_auv.physics.limits import depth_limits
@@ -112,7 +113,9 @@ def _estimate(eta, nu, kf_mean, kf_heading):
 def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
     """One decision as a plain loop of the public pieces, with decide's noise: two draws up
     front from a generator seeded like decide's, ocean ``[steps, 2, *S]`` then sensors
-    ``[steps, *V, 5]`` (DVL xyz, depth, compass)."""
+    ``[steps, *V, 5]`` (DVL xyz, depth, compass). The DVL has bottom lock at altitudes up to
+    30 m (SensorNoise.dvl_range); above, the filter takes the depth reading alone (a joint
+    Kalman update with H selecting the depth), the DVL's draw unused."""
     g = torch.Generator().manual_seed(seed)
     shape, scene = vehicles.batch_size, sea_td.batch_size
     steps, dt, dtype = stack.decision_steps, stack.dt, setpoint.dtype
@@ -124,6 +127,10 @@ def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
     memory = vehicles["controller"]
     sums = dict.fromkeys(DECISION_STATS[1:], torch.zeros(shape, dtype=dtype))
     touched = torch.zeros(shape, dtype=torch.bool)
+    locked_seen = torch.zeros(shape, dtype=torch.bool)
+    unlocked_seen = torch.zeros(shape, dtype=torch.bool)
+    depth_h = torch.zeros(1, 6, dtype=dtype)
+    depth_h[0, 2] = 1.0
     for k in range(steps):
         eta_hat, nu_hat = _estimate(eta, nu, mean, heading)
         command, memory = stack.controller(setpoint, eta_hat, nu_hat, memory, dt)
@@ -132,7 +139,10 @@ def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
         fleet_sea = sea_td  # every vehicle of a scene sees the scene's ocean
         if len(shape) > len(scene):
             fleet_sea = sea_td.unsqueeze(-1).expand(shape)
-        current = ocean.current_at(fleet_sea, eta[..., :3])
+        # finite-depth scene: orbital profiles at the seabed under each vehicle (decide's doc);
+        # current = [speed, direction, w_down], the vertical orbital velocity included
+        local = seabed if "water_depth" in sea_td.keys() else None
+        current = ocean.current_at(fleet_sea, eta[..., :3], water_depth=local)
         eta, nu, act = remus100.step(eta, nu, act, command, current, dt)
         eta, nu, surface, bed = depth_limits(eta, nu, seabed)
         touched |= surface | bed
@@ -142,14 +152,21 @@ def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
         attitude = torch.stack((eta[..., 3], eta[..., 4], heading), -1)
         velocity = dvl(nu, noise.dvl, None, standard_normal=draw[..., :3])
         depth = depth_sensor(eta[..., 2], noise.depth, None, standard_normal=draw[..., 3])
-        mean, cov = loc.update_onboard(mean, cov, velocity, attitude, depth)
+        full = loc.update_onboard(mean, cov, velocity, attitude, depth)
+        depth_only = kf_update(mean, cov, depth[..., None], depth_h,
+                               torch.tensor([[noise.depth**2]], dtype=dtype))  # fmt: skip
+        locked = (seabed - eta[..., 2]) <= 30.0
+        locked_seen |= locked
+        unlocked_seen |= ~locked
+        mean = torch.where(locked[..., None], full[0], depth_only[0])
+        cov = torch.where(locked[..., None, None], full[1], depth_only[1])
         # statistics: errors setpoint vs truth; speed relative to the water the step used
         e_h = _angle_error(setpoint[..., 1], eta[..., 5])
         e_d = (setpoint[..., 0] - eta[..., 2]).abs()
         v_ned = (rotation_matrix(eta[..., 3:]) @ nu[..., :3, None])[..., 0]
         water = torch.stack((current[..., 0] * torch.cos(current[..., 1]),
                              current[..., 0] * torch.sin(current[..., 1]),
-                             torch.zeros_like(current[..., 0])), -1)  # fmt: skip
+                             current[..., 2]), -1)  # fmt: skip
         speed = (v_ned - water).norm(dim=-1)
         for name, value in (("heading_error_sum", e_h), ("heading_error_sq", e_h**2),
                             ("depth_error_sum", e_d), ("depth_error_sq", e_d**2),
@@ -160,7 +177,7 @@ def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
            ("kf", "mean"): mean, ("kf", "cov"): cov, ("kf", "heading"): heading}  # fmt: skip
     out.update({("controller", k): v for k, v in memory.items()})
     stats = {"steps": torch.full(shape, float(steps), dtype=dtype), **sums}
-    return out, sea_td, stats, touched
+    return out, sea_td, stats, touched, (locked_seen, unlocked_seen)
 
 
 def _scenario(shape, dtype=torch.float64):
@@ -188,12 +205,15 @@ def _scenario(shape, dtype=torch.float64):
 
 
 @pytest.mark.parametrize(
-    ("shape", "scene", "controller"),
-    [((3,), (3,), "pid"), ((2, 3), (2,), "s_surface"), ((2, 3), (2,), "smc")],
+    ("shape", "scene", "controller", "water_depth"),
+    [((3,), (3,), "pid", None), ((2, 3), (2,), "s_surface", 45.0), ((2, 3), (2,), "smc", 45.0)],
 )
-def test_decide_equals_a_hand_written_loop_of_the_public_pieces(shape, scene, controller):
-    """float64, "es" sea; the filter is offset from the truth so that a controller fed the
-    truth instead of the estimate shows, and the depth clamp acts at surface and seabed."""
+def test_decide_equals_a_hand_written_loop_of_the_public_pieces(
+    shape, scene, controller, water_depth
+):
+    """float64, "es" sea, deep or finite-depth (45 m scene, local seabed 50 m / 10 m); the
+    filter is offset from the truth so that a controller fed the truth instead of the
+    estimate shows, and the depth clamp acts at surface and seabed."""
     stack = VehicleStack(ocean.get_sea_state("es"), make_controller(controller))
     eta, nu, act, seabed, setpoint = _scenario(shape)
     vehicles = stack.init(eta, nu, act)
@@ -202,14 +222,17 @@ def test_decide_equals_a_hand_written_loop_of_the_public_pieces(shape, scene, co
     vehicles["kf", "heading"] += 0.1
     vehicles["controller"].apply_(lambda m: m + 0.05)  # non-zero controller memory
     sea = ocean.reset_ocean(stack.sea, scene, generator=torch.Generator().manual_seed(1),
-                            dtype=torch.float64)  # fmt: skip
+                            dtype=torch.float64, water_depth=water_depth)  # fmt: skip
     before = vehicles.clone()
     got, got_sea, got_stats = stack.decide(
         vehicles, setpoint, sea, seabed, generator=torch.Generator().manual_seed(7)
     )
-    want, want_sea, want_stats, touched = _reference_decision(stack, before, setpoint, sea,
-                                                              seabed, seed=7)  # fmt: skip
+    want, want_sea, want_stats, touched, (locked, unlocked) = _reference_decision(
+        stack, before, setpoint, sea, seabed, seed=7
+    )
     assert touched[..., 0].all() and touched[..., 1].all()  # the depth clamp is exercised
+    # the DVL gate is exercised: bottom lock over the 10 m seabed, none 40 m above the 50 m one
+    assert locked[..., 1].all() and unlocked[..., 2:].all()
     assert (vehicles == before).all()  # input left unchanged
     assert set(got.keys(True, True)) == set(want)
     for key, value in want.items():
@@ -293,3 +316,42 @@ def test_tracking_errors_are_zero_before_the_first_step():
     zero = TensorDict({k: torch.zeros(3) for k in TRACKING_SUMS}, batch_size=[3])
     for value in tracking_errors(zero).values():
         assert torch.equal(value, torch.zeros(3))
+
+
+# -- waves act on the vehicle (finite-depth orbital velocity, vertical included) -------------------
+def _rms_depth_error(sea, depth, decisions=8, settle=3, n=4):
+    """rms |depth setpoint - depth| (m) per vehicle over decisions ``settle..decisions`` of
+    vehicles holding ``depth`` on a straight course in a 45 m deep scene."""
+    stack = VehicleStack(sea, make_controller("pid"))
+    g = torch.Generator().manual_seed(0)
+    eta = torch.zeros(n, 6)
+    eta[:, 0], eta[:, 2] = torch.arange(n) * 50.0, depth
+    nu = torch.zeros(n, 6)
+    nu[:, 0] = 1.5
+    act = torch.zeros(n, 3)
+    act[:, 2] = 1200.0
+    vehicles = stack.init(eta, nu, act)
+    sea_td = ocean.reset_ocean(sea, (n,), generator=g, water_depth=45.0)
+    setpoint = torch.tensor([depth, 0.0, 1200.0]).expand(n, 3)
+    total = torch.zeros(n)
+    for k in range(decisions):
+        vehicles, sea_td, stats = stack.decide(vehicles, setpoint, sea_td, 45.0, generator=g)
+        if k >= settle:
+            total += stats["depth_error_sq"] / stats["steps"]
+    return (total / (decisions - settle)).sqrt()
+
+
+def test_waves_without_current_move_a_vehicle_near_the_surface():
+    """Issue [9/13] finding 7 ("waves change nothing"): ves waves and no current make a vehicle
+    holding 5 m depth oscillate by about a metre (the vertical orbital velocity enters its
+    relative velocity: angle of attack, hull lift, heave damping); in still water it holds
+    its depth to centimetres; at 20 m the orbital flow, and the error, are smaller."""
+    ves = ocean.get_sea_state("ves")
+    waves = dataclasses.replace(ves, name="ves waves", current_mean=0.0, current_sigma=0.0,
+                                current_direction_sigma=0.0)  # fmt: skip
+    still = dataclasses.replace(waves, name="still", wave_hs=0.0)
+    calm = _rms_depth_error(still, 5.0)
+    rough = _rms_depth_error(waves, 5.0)
+    assert (calm < 0.05).all(), calm
+    assert (rough > 0.3).all() and (rough > 10 * calm).all(), (rough, calm)
+    assert rough.mean() > 1.2 * _rms_depth_error(waves, 20.0).mean()

@@ -137,16 +137,23 @@ def test_ideal_is_still_water_and_still_batched():
         state = step_ocean(state, "ideal", 0.05, generator=gen)
     assert state.batch_size == (5, 2) and state["wave_amplitude"].shape == (5, 2, 100)
     position = (torch.rand(5, 2, 3, generator=_gen(2)) - 0.3) * 30  # some above the surface
-    assert torch.equal(current_at(state, position), torch.zeros(5, 2, 2))
+    assert torch.equal(current_at(state, position), torch.zeros(5, 2, 3))  # [V, beta, w_down]
     assert torch.equal(water_velocity_at(state, position), torch.zeros(5, 2, 3))
     assert torch.equal(surface_elevation_at(state, position), torch.zeros(5, 2))
     assert not torch.signbit(current_at(state, position)).any()  # +0, not -0 or pi
+    finite = reset_ocean("ideal", (5, 2), generator=_gen(), water_depth=40.0)
+    assert torch.equal(current_at(finite, position), torch.zeros(5, 2, 3))
+    assert not torch.signbit(current_at(finite, position)).any()
 
 
 def test_ideal_current_drives_remus_exactly_like_no_current():
     state = reset_ocean("ideal", (3,), generator=_gen(), dtype=F64)
     eta = torch.zeros(3, 6, dtype=F64)
-    nu = torch.tensor([[0.0] * 6, [1.0, 0.1, -0.05, 0, 0, 0.01], [-0.2, 0, 0, 0, 0, 0]], dtype=F64)
+    # the third vehicle moves backwards with w = -0.0: atan2(-0, u_r < 0) = -pi, and a vertical
+    # water velocity of -0 (instead of +0) would turn it into +pi (PVS's reverse-flow quirk)
+    nu = torch.tensor(
+        [[0.0] * 6, [1.0, 0.1, -0.05, 0, 0, 0.01], [-0.2, 0, -0.0, 0, 0, 0]], dtype=F64
+    )
     act = torch.zeros(3, 3, dtype=F64)
     cmd = torch.tensor([[0.1, -0.05, 1525.0]] * 3, dtype=F64)
     with_ocean = remus100.step(eta, nu, act, cmd, current_at(state, eta[:, :3]), 0.05)
@@ -308,7 +315,7 @@ def test_dtypes_follow_the_arguments(dtype):
     for key, value in state.items():
         assert value.dtype == (F64 if key == "time" else dtype), key
     pos = torch.zeros(2, 3, 3, dtype=dtype)
-    assert current_at(state, pos).dtype == dtype and current_at(state, pos).shape == (2, 3, 2)
+    assert current_at(state, pos).dtype == dtype and current_at(state, pos).shape == (2, 3, 3)
     assert water_velocity_at(state, pos).shape == (2, 3, 3)
 
 

@@ -100,6 +100,43 @@ def test_reference_one_step_batched(path):
     torch.testing.assert_close(act, data["act"][1:], atol=1e-11, rtol=0)
 
 
+@pytest.mark.parametrize("path", REFERENCE_FILES, ids=lambda p: p.stem)
+def test_three_wide_current_with_zero_vertical_is_pvs(path):
+    """Spec v2: with no vertical water velocity the model is still PVS. A ``[V_c, beta_c, +0]``
+    current gives the 2-wide rollout bit for bit, hence the reference to 1e-9."""
+    data = _load(path)
+    padded = dict(data, cur=torch.cat([data["cur"], torch.zeros_like(data["cur"][:, :1])], -1))
+    eta, nu, act = _rollout(padded, torch.float64)
+    two = _rollout(data, torch.float64)
+    for got, want in zip((eta, nu, act), two, strict=True):
+        assert torch.equal(got, want)
+    torch.testing.assert_close(eta, data["eta"], atol=1e-9, rtol=0)
+    torch.testing.assert_close(nu, data["nu"], atol=1e-9, rtol=0)
+    torch.testing.assert_close(act, data["act"], atol=1e-9, rtol=0)
+
+
+def test_zero_vertical_current_keeps_the_sign_of_zero_of_w():
+    """Random states (reverse flow included, w = +0 and -0): [V, beta, +0] == [V, beta], bit
+    for bit vehicle by vehicle. Batched, w_r = w - 0 is a new contiguous tensor where w was a
+    strided view of nu, and torch's atan2 takes its SIMD kernel for contiguous inputs, which
+    can differ from the scalar one in the last ulp: equal to rounding there."""
+    gen = torch.Generator().manual_seed(11)
+    eta, nu, act, cmd, cur = _random_vehicles(256, gen)
+    nu[:64, 2] = 0.0
+    nu[64:128, 2] = -0.0
+    nu[:128, 0] = -0.3  # u_r < 0: atan2(+-0, u_r) = +-pi
+    padded = torch.cat([cur, torch.zeros(256, 1, dtype=cur.dtype)], -1)
+    for i in range(0, 256, 3):
+        single = [x[i] for x in (eta, nu, act, cmd)]
+        two, three = step(*single, cur[i], DT), step(*single, padded[i], DT)
+        for a, b in zip(two, three, strict=True):
+            assert torch.equal(a, b), i
+    for a, b in zip(step(eta, nu, act, cmd, cur, DT), step(eta, nu, act, cmd, padded, DT),
+                    strict=True):  # fmt: skip
+        torch.testing.assert_close(a, b, rtol=1e-15, atol=1e-15)
+        assert torch.equal(a[:128], b[:128])  # w = +-0: the sign of zero is kept
+
+
 def _random_vehicles(n, generator, dtype=torch.float64):
     def uniform(shape, low, high):
         return low + (high - low) * torch.rand(shape, generator=generator, dtype=dtype)
@@ -260,7 +297,8 @@ def test_derived_parameters_match_spec_values():
         ("nu", (4, 7)),
         ("actuators", (4, 2)),
         ("command", (4,)),
-        ("current", (4, 3)),
+        ("current", (4, 4)),  # 2 ([V_c, beta_c]) or 3 (plus w_c) wide
+        ("current", (4, 1)),
     ],
 )
 def test_wrong_shapes_raise(name, shape):

@@ -23,7 +23,7 @@ from torchrl_auv.envs.vehicles import (
     add_tracking_sums,
     tracking_errors,
 )
-from torchrl_auv.estimation import usbl_fix
+from torchrl_auv.estimation import gnss_error_init, gnss_error_step, usbl_fix_from_asv
 from torchrl_auv.physics import ocean
 from torchrl_auv.physics.limits import diverged
 
@@ -73,8 +73,16 @@ class AUVTrackingEnv(EnvBase):
     entries is zeroed); ``truncated`` after ``max_steps`` decisions.
     ``done = terminated | truncated``.
 
-    **Other keys.** ``("truth", "eta"|"nu"|"actuators")`` (true state, for metrics and plots;
-    policies must not read it), ``("kf", "mean"|"cov")``, ``"setpoint"``, ``"reference"``,
+    **Localisation.** Every physics step the filter fuses compass, depth and, with bottom lock
+    (altitude at most 30 m; the seabed here is 200 m deep, so in this env never), the DVL; once
+    per decision a USBL fix from an ASV keeping station 30 m north of the AUV, with the sea
+    state's errors (:func:`~torchrl_auv.estimation.usbl_fix_from_asv`): range and bearing
+    noise, the ASV's wave-driven attitude residual, dropouts, and the ASV's GNSS error
+    (Gauss-Markov, ``"asv_gnss_error"``) as the fix's bias.
+
+    **Other keys.** ``("truth", "eta"|"nu"|"actuators")`` and ``"asv_gnss_error"``
+    ``[*B, 2]`` (north, east, m) (true state, for metrics and plots; policies must not read
+    them), ``("kf", "mean"|"cov")``, ``"setpoint"``, ``"reference"``,
     ``("controller", ...)``, ``"ocean"``, and ``("metrics", name)`` with the running episode
     values of ``heading_error_mean``, ``heading_error_std`` (rad), ``depth_error_mean``,
     ``depth_error_std`` (m), between the controller setpoints and the true state over all
@@ -192,6 +200,7 @@ class AUVTrackingEnv(EnvBase):
                 "metrics": self._metrics(stats),
             }
         )
+        td["asv_gnss_error"] = gnss_error_init((*shape, 2), self.sea.gnss_sigma, g)
         td["observation"] = self._observe(td)
         return td
 
@@ -242,9 +251,10 @@ class AUVTrackingEnv(EnvBase):
         memory = vehicles["controller"]
         asv = torch.cat([eta[..., :2], torch.zeros_like(eta[..., :1])], -1)
         asv[..., 0] += 30.0  # the ASV keeps station 30 m north of the AUV
-        fix, fix_cov, valid = usbl_fix(
-            eta[..., :3], asv, self.sea.usbl_noise_fraction, self.sea.usbl_bearing_sigma, g
-        )
+        sea = self.sea
+        gnss = gnss_error_step(td["asv_gnss_error"], sea.gnss_sigma, sea.gnss_time_constant,
+                               self.decision_steps * self.dt, g)  # fmt: skip
+        fix, fix_cov, valid = usbl_fix_from_asv(eta[..., :3], asv, gnss, sea, g)
         mean, cov = self.localiser.update_usbl(mean, cov, fix, fix_cov, valid)
 
         step_count = td["step_count"] + 1
@@ -253,7 +263,7 @@ class AUVTrackingEnv(EnvBase):
             "kf": {"mean": mean, "cov": cov, "heading": heading},
             "setpoint": setpoint, "reference": td["reference"], "controller": memory,
             "ocean": sea_td, "step_count": step_count, "stats": stats,
-            "metrics": self._metrics(stats),
+            "metrics": self._metrics(stats), "asv_gnss_error": gnss,
         }, batch_size=td.batch_size)  # fmt: skip
         ref = self._reference_now(out)
         cost = (

@@ -7,8 +7,13 @@ env classes stay thin. Per physics step (``dt`` = 0.05 s):
 1. the controller reads the vehicle's *estimated* state (Kalman position/velocity, AHRS roll,
    pitch and rates, compass heading) and the setpoints, and commands fins and propeller;
 2. the ocean advances (Gauss-Markov current, clock) and the vehicle steps in the water velocity
-   at its position; depth is kept in ``[0, seabed]``;
-3. the filter predicts and fuses DVL, depth and compass readings.
+   at its position (current plus wave orbital velocity, horizontal and vertical, the orbital
+   profiles taken at the seabed depth under the vehicle in a finite-depth ocean); depth is kept
+   in ``[0, seabed]``;
+3. the filter predicts and fuses DVL, depth and compass readings; the DVL only where it has
+   bottom lock, i.e. where the vehicle's altitude ``seabed - depth`` is at most the DVL's range
+   (``SensorNoise.dvl_range``, 30 m), elsewhere depth alone (no new random draws: the DVL's
+   noise is drawn and unused).
 
 The USBL fix, once per decision, is left to the env (it knows where the ASV is).
 
@@ -22,7 +27,14 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 
 from torchrl_auv.control import Controller, wrap_angle
-from torchrl_auv.estimation import Localiser, SensorNoise, compass, depth_sensor, dvl
+from torchrl_auv.estimation import (
+    Localiser,
+    SensorNoise,
+    compass,
+    depth_sensor,
+    dvl,
+    dvl_bottom_lock,
+)
 from torchrl_auv.physics import ocean, remus100
 from torchrl_auv.physics.energy import shaft_power
 from torchrl_auv.physics.limits import depth_limits
@@ -39,7 +51,7 @@ __all__ = [
 
 _CURRENT_KEYS = ("current_speed", "current_direction", "time")
 _WAVE_KEYS = ("wave_phase", "wave_kx", "wave_ky", "wave_frequency", "wave_number", "wave_un",
-              "wave_ue")  # fmt: skip
+              "wave_ue", "wave_ud")  # fmt: skip
 
 #: running sums of one decision, per vehicle, returned by :meth:`VehicleStack.decide`
 DECISION_STATS = (
@@ -95,12 +107,15 @@ def estimated_state(
 def _speed_through_water(
     eta: torch.Tensor, nu: torch.Tensor, current: torch.Tensor
 ) -> torch.Tensor:
-    """``|v - v_water|`` (m/s): the vehicle's speed relative to the horizontal water velocity
-    ``current`` = ``[speed, direction]`` (what drag, and so the EC power model, depends on)."""
+    """``|v - v_water|`` (m/s): the vehicle's speed relative to the water velocity ``current`` =
+    ``[speed, direction, w_down]`` (horizontal speed and direction, vertical positive down; what
+    drag, and so the EC power model, depends on), all in NED."""
     v_ned = (rotation_matrix(eta[..., 3:]) @ nu[..., :3].unsqueeze(-1)).squeeze(-1)
     water_n = current[..., 0] * torch.cos(current[..., 1])
     water_e = current[..., 0] * torch.sin(current[..., 1])
-    relative = torch.stack((v_ned[..., 0] - water_n, v_ned[..., 1] - water_e, v_ned[..., 2]), -1)
+    relative = torch.stack(
+        (v_ned[..., 0] - water_n, v_ned[..., 1] - water_e, v_ned[..., 2] - current[..., 2]), -1
+    )
     return torch.linalg.vector_norm(relative, dim=-1)
 
 
@@ -217,7 +232,7 @@ class VehicleStack:
             setpoint: controller setpoints for the whole decision.
             sea_state: ocean state, batch ``[*S]`` (a prefix of ``[*V]``).
             seabed_depth: seabed under each vehicle (m, > 0), float or ``[*V]``, for the
-                depth clamp.
+                depth clamp and the DVL's bottom lock.
             generator: the only source of randomness.
 
         Returns:
@@ -254,6 +269,13 @@ class VehicleStack:
         # the ocean's entries get singleton vehicle dims once per decision, so that they
         # broadcast against [*V] in every physics step
         waves = {k: here(sea_state[k]) for k in _WAVE_KEYS}
+        if "water_depth" in sea_state.keys():
+            # a finite-depth ocean: orbital profiles at the local water depth (the seabed under
+            # each vehicle, [*V]; scenes given as infinitely deep stay deep). The depth is
+            # fixed over the decision: its factors e^{-2kh}, 1/(1 - e^{-2kh}) are computed once
+            depth = here(sea_state["water_depth"])
+            depth = torch.where(torch.isfinite(depth), seabed.to(depth.dtype), depth)
+            waves.update(ocean.seabed_factors(waves, depth))
         carry = {
             **{k: vehicles["truth", k] for k in ("eta", "nu", "actuators")},
             **{k: vehicles["kf", k] for k in ("mean", "cov", "heading")},
@@ -323,6 +345,7 @@ class VehicleStack:
             dvl(nu, noise.dvl, None, standard_normal=sensor_draw[..., :3]),
             attitude,
             depth_sensor(eta[..., 2], noise.depth, None, standard_normal=sensor_draw[..., 3]),
+            dvl_valid=dvl_bottom_lock(seabed - eta[..., 2], noise.dvl_range),
         )
         e_h = wrap_angle(setpoint[..., 1] - eta[..., 5]).abs()
         e_d = (setpoint[..., 0] - eta[..., 2]).abs()

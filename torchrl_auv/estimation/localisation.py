@@ -14,8 +14,13 @@ the compass heading :math:`\hat\psi` (roll and pitch from the attitude sensor ar
 exact, ours), with diagonal covariance :math:`\sigma_{DVL}^2 I` plus the heading error's
 cross-track variance :math:`(\sigma_\psi |v_h|)^2` on both horizontal axes (conservative, and it
 keeps :math:`R` diagonal so the update is four cheap scalar updates), and the depth sensor.
-Once per decision a USBL fix updates the position with its range-dependent covariance; a lost
-fix is skipped.
+Without bottom lock (altitude above the DVL's range) the three velocity updates are skipped and
+only the depth updates the filter (``dvl_valid``); the velocity is then carried by the motion
+model and the USBL fixes alone. Once per decision a USBL fix updates the position with its
+range-dependent covariance; a lost fix is skipped. The fix's covariance includes the ASV's GNSS
+error variance (:func:`~torchrl_auv.estimation.sensors.usbl_fix_from_asv`), which the filter
+treats as white: it is in fact correlated over about 60 s and cannot be separated from the
+vehicle's position by any sensor here, so the filter's covariance understates that part.
 """
 
 from __future__ import annotations
@@ -106,9 +111,15 @@ class Localiser:
         dvl_velocity: torch.Tensor,
         attitude: torch.Tensor,
         depth: torch.Tensor,
+        dvl_valid: torch.Tensor | None = None,
     ):
         """Update with DVL body velocity ``[*B, 3]``, attitude ``[*B, 3]`` (roll, pitch, compass
-        heading, rad) and a depth reading ``[*B]`` (m)."""
+        heading, rad) and a depth reading ``[*B]`` (m).
+
+        ``dvl_valid`` (``[*B]`` bool, e.g. from
+        :func:`~torchrl_auv.estimation.sensors.dvl_bottom_lock`) skips the DVL part where it
+        is ``False``: there only the depth updates the filter. ``None`` means bottom lock
+        everywhere (the same result as an all-``True`` mask)."""
         rot = rotation_matrix(attitude)
         v_ned = (rot @ dvl_velocity.unsqueeze(-1)).squeeze(-1)
         z = torch.cat([v_ned, depth.unsqueeze(-1)], -1)
@@ -120,7 +131,13 @@ class Localiser:
             (var_v, var_v, torch.full_like(var_v, self.noise.dvl**2),
              torch.full_like(var_v, max(self.noise.depth, 1e-6) ** 2)), -1
         )  # fmt: skip
-        return kf_update_sequential(mean, cov, z, (3, 4, 5, 2), variances)
+        if dvl_valid is None:
+            return kf_update_sequential(mean, cov, z, (3, 4, 5, 2), variances)
+        # the same scalar updates in the same order, the DVL's three masked
+        mean, cov = kf_update_sequential(
+            mean, cov, z[..., :3], (3, 4, 5), variances[..., :3], mask=dvl_valid
+        )
+        return kf_update_sequential(mean, cov, z[..., 3:], (2,), variances[..., 3:])
 
     def update_usbl(
         self,

@@ -38,32 +38,62 @@ within an episode but drawn per episode.
 * amplitude :math:`a_j = \sqrt{2\,S(\omega)\Delta\omega\,D(\theta_l)\Delta\theta}
   = \sqrt{2\,(m_0/N_f)\,D(\theta_l)\Delta\theta}`, hence :math:`\sum_j a_j^2/2 = m_0 = H_s^2/16`
   exactly in every scene;
-* deep-water wavenumber :math:`k_j = \omega_j^2/g` and a uniform random phase :math:`\varphi_j`.
+* wavenumber :math:`k_j` from the linear dispersion relation in water of depth :math:`h`
+  (:func:`wavenumber`), :math:`\omega_j^2 = g k_j \tanh(k_j h)`, solved once per episode; deep
+  water (``water_depth=None``, the default, or :math:`h = \infty`) gives :math:`k_j =
+  \omega_j^2/g`; and a uniform random phase :math:`\varphi_j`.
 
 The mean wave direction :math:`\bar\theta` equals the mean current direction :math:`\bar\beta`
-(ours: wind sea and wind-driven current run together). With :math:`d = \max(z, 0)` the depth
-(NED :math:`z`, positive down; points above the surface get the surface value), the phase
-:math:`\chi_j = k_j(x\cos\theta_j + y\sin\theta_j) - \omega_j t + \varphi_j` and linear deep-water
-theory,
+(ours: wind sea and wind-driven current run together). With the phase
+:math:`\chi_j = k_j(x\cos\theta_j + y\sin\theta_j) - \omega_j t + \varphi_j`, the water depth
+:math:`h` (m) and :math:`d = \min(\max(z, 0), h)` the depth of the point (NED :math:`z`, positive
+down; points above the surface get the surface value, points below the seabed the seabed
+value), linear finite-depth (Airy) theory gives (spec v2, "Disturbances")
 
 .. math::
 
     \eta = \sum_j a_j\cos\chi_j,\qquad
     \begin{bmatrix}u_N \ u_E\end{bmatrix} = V\begin{bmatrix}\cos\beta \ \sin\beta\end{bmatrix}
-    + \sum_j a_j\omega_j e^{-k_j d}\cos\chi_j\begin{bmatrix}\cos\theta_j \ \sin\theta_j
-    \end{bmatrix},\qquad
-    u_D = -\sum_j a_j\omega_j e^{-k_j d}\sin\chi_j .
+    + \sum_j a_j\omega_j\,\frac{\cosh k_j(h - d)}{\sinh k_j h}\,\cos\chi_j
+    \begin{bmatrix}\cos\theta_j \ \sin\theta_j\end{bmatrix},\qquad
+    u_D = -\sum_j a_j\omega_j\,\frac{\sinh k_j(h - d)}{\sinh k_j h}\,\sin\chi_j .
+
+The depth profiles are evaluated with decaying exponentials only (no overflow, and exactly the
+deep-water :math:`e^{-k_j d}` for :math:`h = \infty`):
+
+.. math::
+
+    \frac{\cosh k(h - d)}{\sinh kh} = \frac{e^{-kd} + e^{-k(2h - d)}}{1 - e^{-2kh}},\qquad
+    \frac{\sinh k(h - d)}{\sinh kh} = \frac{e^{-kd} - e^{-k(2h - d)}}{1 - e^{-2kh}},\qquad
+    e^{-k(2h - d)} = \frac{e^{-2kh}}{e^{-kd}} ;
+
+the depth-only factors :math:`e^{-2kh}` and :math:`1/(1 - e^{-2kh})` can be computed once for a
+fixed depth (:func:`seabed_factors`), leaving one exponential per component per evaluation.
+At the seabed (:math:`d = h`) the vertical velocity is zero (to rounding) and the horizontal
+one is :math:`a\omega/\sinh kh`; in deep water both decay as :math:`e^{-kd}` and the orbits are
+circles. At the project's depths (39-58 m, :math:`T_p` 10-12 s, :math:`kh \approx 1.3`-2.4 at
+the peak) deep-water theory underestimates the near-bed horizontal orbital velocity: at the
+``ves`` peak (12 s) in 45 m of water by 37 % 5 m above the bed and 45 % at the bed.
+
+*Slowly varying depth.* :func:`reset_ocean` takes one depth per scene (``water_depth``, e.g.
+the scene's mean seabed depth) and solves the dispersion relation with it; the velocity
+functions take an optional *local* depth (the seabed under the vehicle) for the profiles
+only, while the phases keep the scene's wavenumbers. This is the slowly-varying-depth
+approximation without refraction or shoaling (no change of :math:`k`, direction or amplitude
+over the terrain): fine for seabeds that vary by 39-58 m over 80-400 m wavelengths, not for
+steep slopes.
 
 **Ideal.** ``ideal`` has zero current (mean and spread) and :math:`H_s = 0`: every velocity is
-exactly zero, :func:`current_at` returns exactly ``[0, 0]``, and the state keeps its full batched
-shape (the same keys and random draws as the other sea states).
+exactly zero, :func:`current_at` returns exactly ``[0, 0, 0]`` (all ``+0``), and the state keeps
+its full batched shape (the same keys and random draws as the other sea states).
 
 **Common random numbers.** :func:`reset_ocean` and :func:`step_ocean` draw the same random
 numbers in the same order for every sea state, so one seed gives matching scenes across
 ``ideal``, ``es`` and ``ves`` (same phases, frequency quantiles and normalised current anomaly).
 
 :func:`current_at` returns what :func:`torchrl_auv.physics.remus100.step` takes: the total
-horizontal water velocity at the vehicle as ``[speed, direction]``.
+water velocity at the vehicle as ``[speed, direction, w_down]`` (the horizontal part as speed
+and direction, plus the vertical orbital velocity, m/s positive down).
 """
 
 from __future__ import annotations
@@ -86,9 +116,11 @@ __all__ = [
     "get_sea_state",
     "jonswap_spectrum",
     "reset_ocean",
+    "seabed_factors",
     "step_ocean",
     "surface_elevation_at",
     "water_velocity_at",
+    "wavenumber",
 ]
 
 GRAVITY = 9.81  # m/s^2, as in the REMUS-100 model
@@ -120,6 +152,33 @@ class SeaState:
         wave_gamma: JONSWAP peak-enhancement factor :math:`\gamma \ge 1`.
         usbl_noise_fraction: USBL range noise as a fraction of the slant range.
         usbl_bearing_sigma: USBL bearing noise (rad; default 0.1 deg).
+        usbl_dropout: probability that a USBL fix is lost (acoustic loss; 0 to 1).
+        usbl_attitude_sigma: residual error of the ASV's wave-driven roll/pitch after motion
+            compensation (rad); it tilts the transducer, so it adds in quadrature to
+            ``usbl_bearing_sigma`` on both bearing angles (per fix, independent).
+        gnss_sigma: stationary standard deviation of the ASV's GNSS position error per
+            horizontal axis (m); the USBL fix is computed from the believed ASV position, so
+            this error becomes a bias of the fix.
+        gnss_time_constant: Gauss-Markov time constant of the GNSS error (s); ``math.inf``
+            freezes it within an episode.
+
+    The localisation errors of the presets (``shared/spec/data_collection.md``, "Localisation"
+    v2; values ours):
+
+    ===============================  =====  =====  =====  ==========================================
+    field                            ideal  es     ves    why
+    ===============================  =====  =====  =====  ==========================================
+    ``usbl_dropout``                 0      0.05   0.20   the spec's 0 / ~5 / ~20 % of fixes lost
+    ``usbl_attitude_sigma`` (deg)    0      0.5    0.75   ASV roll/pitch ~2.5 deg rms per m of
+                                                          :math:`H_s`, ~5 % left after compensation
+    ``gnss_sigma`` (m)               1.0    1.5    2.0    a standalone/SBAS receiver (1.4 m DRMS)
+                                                          on a calm ASV; a small ASV rolling and
+                                                          pitching in a 4-6 m sea adds antenna
+                                                          motion and multipath (the spec's 1-2 m)
+    ``gnss_time_constant`` (s)       60     60     60     the spec's 60 s correlation
+    ===============================  =====  =====  =====  ==========================================
+
+    A :class:`SeaState` built by hand has none of these errors unless it sets them.
 
     Raises:
         ValueError: naming the field, for a negative spread, height or noise level, a
@@ -146,6 +205,10 @@ class SeaState:
     wave_gamma: float = 3.3
     usbl_noise_fraction: float = 0.001
     usbl_bearing_sigma: float = math.radians(0.1)
+    usbl_dropout: float = 0.0
+    usbl_attitude_sigma: float = 0.0
+    gnss_sigma: float = 0.0
+    gnss_time_constant: float = 60.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str):
@@ -157,12 +220,18 @@ class SeaState:
             "wave_hs",
             "usbl_noise_fraction",
             "usbl_bearing_sigma",
+            "usbl_attitude_sigma",
+            "gnss_sigma",
         )
         for field in non_negative:
             value = getattr(self, field)
             if not (_is_real(value) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"SeaState.{field} must be a finite number >= 0, got {value!r}")
-        for field in ("current_time_constant", "wave_tp"):
+        if not (_is_real(self.usbl_dropout) and 0.0 <= self.usbl_dropout <= 1.0):
+            raise ValueError(
+                f"SeaState.usbl_dropout must be a probability in [0, 1], got {self.usbl_dropout!r}"
+            )
+        for field in ("current_time_constant", "wave_tp", "gnss_time_constant"):
             value = getattr(self, field)
             if not (_is_real(value) and value > 0):  # inf allowed: a frozen current
                 raise ValueError(f"SeaState.{field} must be a number > 0, got {value!r}")
@@ -185,16 +254,21 @@ def _is_real(value: object) -> bool:
 
 
 SEA_STATES: dict[str, SeaState] = {
-    "ideal": SeaState(name="ideal", usbl_noise_fraction=0.001),
+    "ideal": SeaState(
+        name="ideal", usbl_noise_fraction=0.001, usbl_dropout=0.0, usbl_attitude_sigma=0.0,
+        gnss_sigma=1.0, gnss_time_constant=60.0,
+    ),
     "es": SeaState(
         name="es", current_mean=0.5, current_sigma=0.1, current_time_constant=60.0,
         current_direction_sigma=0.2, wave_hs=4.0, wave_tp=10.0, wave_gamma=3.3,
-        usbl_noise_fraction=0.005,
+        usbl_noise_fraction=0.005, usbl_dropout=0.05, usbl_attitude_sigma=math.radians(0.5),
+        gnss_sigma=1.5, gnss_time_constant=60.0,
     ),
     "ves": SeaState(
         name="ves", current_mean=1.0, current_sigma=0.2, current_time_constant=60.0,
         current_direction_sigma=0.3, wave_hs=6.0, wave_tp=12.0, wave_gamma=3.3,
-        usbl_noise_fraction=0.01,
+        usbl_noise_fraction=0.01, usbl_dropout=0.20, usbl_attitude_sigma=math.radians(0.75),
+        gnss_sigma=2.0, gnss_time_constant=60.0,
     ),
 }  # fmt: skip
 
@@ -313,6 +387,7 @@ def reset_ocean(
     device: torch.device | str | None = None,
     n_frequencies: int = 10,
     n_directions: int = 10,
+    water_depth: float | torch.Tensor | None = None,
 ) -> TensorDict:
     r"""Draw a new ocean for each scene: a stationary current and fixed wave components.
 
@@ -327,19 +402,28 @@ def reset_ocean(
         device: device of the state (default: CPU).
         n_frequencies: number of equal-energy frequency bins :math:`N_f`.
         n_directions: number of directions :math:`N_d` within :math:`\pm\pi/2` of the mean.
+        water_depth: water depth :math:`h` (m, > 0) of each scene for the dispersion relation
+            (:func:`wavenumber`) and the default depth profile of the velocity functions: a
+            float or a ``[*B]`` tensor, ``math.inf`` allowed (deep water for that scene).
+            ``None`` (default) is deep water everywhere: :math:`k = \omega^2/g` and the
+            :math:`e^{-kd}` decay, exactly as before finite depth was added. The random draws
+            do not depend on it (common random numbers across depths too).
 
     Returns:
         A :class:`~tensordict.TensorDict` with ``batch_size=batch_shape`` holding, shaped ``[*B]``:
         ``current_speed`` (m/s), ``current_direction`` (rad), ``current_direction_mean`` (rad),
-        ``time`` (s); and shaped ``[*B, N_f * N_d]`` (frequency-major): ``wave_amplitude`` (m),
-        ``wave_frequency`` (rad/s), ``wave_number`` (rad/m), ``wave_direction`` (rad),
+        ``time`` (s), ``water_depth`` (m; only if ``water_depth`` was given: deep water has no
+        entry, so that every entry is finite); and shaped ``[*B, N_f * N_d]``
+        (frequency-major): ``wave_amplitude`` (m), ``wave_frequency`` (rad/s), ``wave_number``
+        (rad/m, from the dispersion relation at ``water_depth``), ``wave_direction`` (rad),
         ``wave_phase`` (rad), plus the precomputed products ``wave_kx``, ``wave_ky`` (rad/m,
-        :math:`k\cos\theta, k\sin\theta`) and ``wave_un``, ``wave_ue`` (m/s,
-        :math:`a\omega\cos\theta, a\omega\sin\theta`).
+        :math:`k\cos\theta, k\sin\theta`) and ``wave_un``, ``wave_ue``, ``wave_ud`` (m/s,
+        :math:`a\omega\cos\theta, a\omega\sin\theta, a\omega`).
 
     Raises:
-        ValueError: for an unknown sea state, a missing generator, a non-floating dtype or
-            fewer than one frequency or direction.
+        ValueError: for an unknown sea state, a missing generator, a non-floating dtype,
+            fewer than one frequency or direction, or a water depth that is not > 0 (or
+            does not broadcast to ``[*B]``).
 
     >>> g = torch.Generator().manual_seed(0)
     >>> state = reset_ocean("es", (2,), generator=g)
@@ -387,28 +471,98 @@ def reset_ocean(
     omega = omega.reshape(*batch_shape, n_comp)
     theta = theta.reshape(*batch_shape, n_comp)
     amplitude = amplitude.reshape(*batch_shape, n_comp)
-    wavenumber = omega**2 / GRAVITY
+    if water_depth is None:  # deep water: no water_depth entry (every entry stays finite)
+        k, depth = omega**2 / GRAVITY, {}
+    else:
+        h = _check_water_depth(water_depth, batch_shape, dtype, device)
+        k, depth = wavenumber(omega, h.unsqueeze(-1)), {"water_depth": h}
     cos_t, sin_t = torch.cos(theta), torch.sin(theta)
     return TensorDict(
         {
+            **depth,
             "current_speed": speed,
             "current_direction": direction,
             "current_direction_mean": direction_mean,
             "time": torch.zeros(batch_shape, dtype=torch.float64, device=device),
             "wave_amplitude": amplitude,
             "wave_frequency": omega,
-            "wave_number": wavenumber,
+            "wave_number": k,
             "wave_direction": theta,
             "wave_phase": phase,
             # precomputed per episode so a physics step is a handful of fused ops
-            "wave_kx": wavenumber * cos_t,
-            "wave_ky": wavenumber * sin_t,
+            "wave_kx": k * cos_t,
+            "wave_ky": k * sin_t,
             "wave_un": amplitude * omega * cos_t,
             "wave_ue": amplitude * omega * sin_t,
+            "wave_ud": amplitude * omega,
         },
         batch_size=batch_shape,
         device=device,
     )
+
+
+def wavenumber(
+    omega: torch.Tensor, water_depth: float | torch.Tensor | None = None
+) -> torch.Tensor:
+    r"""Wavenumber :math:`k` (rad/m) of linear waves of frequency :math:`\omega` in depth :math:`h`.
+
+    Solves the dispersion relation :math:`\omega^2 = g k \tanh(k h)` (:math:`g` =
+    :data:`GRAVITY`) by Newton's method in float64 on :math:`x = kh`,
+    :math:`F(x) = x\tanh x - \omega^2 h/g`, from Eckart's approximation
+    :math:`x_0 = y/\sqrt{\tanh y}`, :math:`y = \omega^2 h/g` (within 5 % everywhere; Newton then
+    converges to rounding in a few steps). The limits: :math:`k \to \omega^2/g` in deep water
+    (:math:`kh \gg 1`; ``water_depth`` ``None`` or ``inf`` gives exactly that) and
+    :math:`k \to \omega/\sqrt{gh}` in shallow water (:math:`kh \ll 1`).
+
+    Args:
+        omega: angular frequencies (rad/s, > 0), any shape.
+        water_depth: depth :math:`h` (m, > 0, ``inf`` allowed), broadcasting against
+            ``omega``; ``None`` is deep water.
+
+    Returns:
+        :math:`k`, shaped like the broadcast of the inputs, in ``omega``'s dtype and device.
+
+    >>> w = torch.tensor([2 * math.pi / 10], dtype=torch.float64)
+    >>> k = wavenumber(w, 45.0)
+    >>> round(k.item(), 5), round(k.item() * 45.0, 3)  # intermediate depth at Tp 10 s, 45 m
+    (0.0421, 1.895)
+    >>> bool(((GRAVITY * k * torch.tanh(k * 45.0) - w**2).abs() < 1e-14).all())
+    True
+    """
+    deep = omega**2 / GRAVITY
+    if water_depth is None:
+        return deep
+    omega64 = omega.to(torch.float64)
+    depth = torch.as_tensor(water_depth, dtype=torch.float64, device=omega.device)
+    finite = torch.isfinite(depth)
+    depth = torch.where(finite, depth, 1.0)
+    y = omega64**2 * depth / GRAVITY
+    x = y / torch.sqrt(torch.tanh(y))
+    for _ in range(50):
+        tanh_x = torch.tanh(x)
+        step = (x * tanh_x - y) / (tanh_x + x * (1.0 - tanh_x * tanh_x))
+        x = x - step
+        if bool((step.abs() <= 4e-16 * x).all()):
+            break
+    return torch.where(finite, (x / depth).to(omega.dtype), deep)
+
+
+def _check_water_depth(water_depth, batch_shape, dtype, device) -> torch.Tensor:
+    """``water_depth`` as a ``[*B]`` tensor; ValueError unless every value is > 0 (inf ok)."""
+    if isinstance(water_depth, bool) or not isinstance(water_depth, (int, float, torch.Tensor)):
+        raise ValueError(
+            f"water_depth must be None, a number or a tensor (m), got {type(water_depth).__name__}"
+        )
+    depth = torch.as_tensor(water_depth, dtype=dtype, device=device)
+    if not bool((depth > 0).all()):  # also rejects NaN
+        raise ValueError(f"water_depth must be > 0 (m), got {water_depth!r}")
+    try:
+        return depth.expand(batch_shape).clone()
+    except RuntimeError as err:
+        raise ValueError(
+            f"water_depth must be a number or broadcast to the batch {tuple(batch_shape)}, "
+            f"got shape {tuple(depth.shape)}"
+        ) from err
 
 
 def step_ocean(
@@ -515,7 +669,9 @@ def advance_current(
     return new_speed, new_direction
 
 
-def _check_position(state: TensorDict, position_ned: torch.Tensor) -> None:
+def _check_position(
+    state: TensorDict, position_ned: torch.Tensor, water_depth: float | torch.Tensor | None = None
+) -> None:
     if not isinstance(position_ned, torch.Tensor):
         raise ValueError(
             f"position_ned must be a tensor shaped [*B, 3], got {type(position_ned).__name__}"
@@ -525,21 +681,122 @@ def _check_position(state: TensorDict, position_ned: torch.Tensor) -> None:
             f"position_ned must be shaped [*B, 3] with B = {tuple(state.batch_size)}, "
             f"got {tuple(position_ned.shape)}"
         )
+    if water_depth is None:
+        return
+    if isinstance(water_depth, bool) or not isinstance(water_depth, (int, float, torch.Tensor)):
+        raise ValueError(
+            f"water_depth must be None, a number or a tensor (m), got {type(water_depth).__name__}"
+        )
+    depth = torch.as_tensor(water_depth)
+    if not bool((depth > 0).all()):  # also rejects NaN
+        raise ValueError(f"water_depth must be > 0 (m), got {water_depth!r}")
+    try:
+        torch.broadcast_shapes(depth.shape, state.batch_size)
+    except RuntimeError as err:
+        raise ValueError(
+            f"water_depth must broadcast to the batch {tuple(state.batch_size)}, "
+            f"got shape {tuple(depth.shape)}"
+        ) from err
 
 
-def _phase_and_decay(
-    state: TensorDict, position_ned: torch.Tensor
-) -> tuple[torch.Tensor, torch.Tensor]:
-    r"""Wave phases :math:`\chi_j` and depth decays :math:`e^{-k_j d}`, ``[*B, N]`` each."""
+def _phase(state: Mapping[str, torch.Tensor], position_ned: torch.Tensor) -> torch.Tensor:
+    r"""Wave phases :math:`\chi_j = k_j(x\cos\theta_j + y\sin\theta_j) - \omega_j t + \varphi_j`,
+    ``[*B, N]``."""
     frequency = state["wave_frequency"]
     x, y = position_ned[..., 0:1], position_ned[..., 1:2]
-    depth = position_ned[..., 2:3].clamp_min(0.0)
     time = state["time"].to(frequency.dtype).unsqueeze(-1)
     # fused multiply-adds: one pass over [*B, N] per term
     chi = torch.addcmul(state["wave_phase"], state["wave_kx"], x)
     chi = torch.addcmul(chi, state["wave_ky"], y)
-    chi = torch.addcmul(chi, frequency, time, value=-1.0)
-    return chi, torch.exp(state["wave_number"] * -depth)
+    return torch.addcmul(chi, frequency, time, value=-1.0)
+
+
+def seabed_factors(
+    state: Mapping[str, torch.Tensor], water_depth: float | torch.Tensor | None = None
+) -> dict[str, torch.Tensor]:
+    r"""The depth-only factors of the orbital profiles, for a water depth held fixed.
+
+    .. math::
+
+        m = e^{-2kh},\qquad s = \frac{1}{1 - e^{-2kh}}\qquad\text{so that}\qquad
+        \frac{\cosh k(h - d)}{\sinh kh} = s\,\Big(e^{-kd} + \frac{m}{e^{-kd}}\Big),\quad
+        \frac{\sinh k(h - d)}{\sinh kh} = s\,\Big(e^{-kd} - \frac{m}{e^{-kd}}\Big).
+
+    :func:`current_from_state` evaluates them on every call. A caller whose depth stays fixed
+    over many calls (:class:`~torchrl_auv.envs.vehicles.VehicleStack`: the seabed under each
+    vehicle over one decision) evaluates them once and passes the mapping
+    ``{**state, **seabed_factors(state, depth)}``: each call then costs one exponential per
+    wave component instead of three. In deep water (:math:`h = \infty`) :math:`m = 0` and
+    :math:`s = 1` exactly.
+
+    Args:
+        state: a mapping with ``wave_number`` ``[*B, N]`` and, unless ``water_depth`` is
+            given, ``water_depth``.
+        water_depth: depth :math:`h` (m, > 0, ``inf`` allowed, not checked), broadcasting to
+            ``[*B]``; ``None`` uses the state's.
+
+    Returns:
+        ``{"water_depth": h, "wave_bed_mirror": m, "wave_bed_scale": s}``, ``h`` shaped like the
+        depth given, ``m`` and ``s`` like the broadcast of ``wave_number`` and ``h[..., None]``.
+
+    Raises:
+        ValueError: if neither ``water_depth`` nor the state gives a depth (deep water needs
+            no factors: pass ``math.inf`` to get them anyway).
+
+    >>> g = torch.Generator().manual_seed(0)
+    >>> state = reset_ocean("es", (2,), generator=g, dtype=torch.float64)
+    >>> factors = seabed_factors(state, math.inf)  # deep water
+    >>> bool((factors["wave_bed_mirror"] == 0).all()), bool((factors["wave_bed_scale"] == 1).all())
+    (True, True)
+    """
+    k = state["wave_number"]
+    if water_depth is None and "water_depth" not in state:
+        raise ValueError("seabed_factors needs a water_depth: the state has none (deep water)")
+    h = state["water_depth"] if water_depth is None else water_depth
+    h = torch.as_tensor(h, dtype=k.dtype, device=k.device)
+    two_kh = k * (2.0 * h.unsqueeze(-1))
+    return {
+        "water_depth": h,
+        "wave_bed_mirror": torch.exp(-two_kh),  # e^{-2kh}
+        "wave_bed_scale": -1.0 / torch.expm1(-two_kh),  # 1 / (1 - e^{-2kh})
+    }
+
+
+def _profiles(
+    state: Mapping[str, torch.Tensor],
+    position_ned: torch.Tensor,
+    water_depth: float | torch.Tensor | None,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    r"""Depth profiles of the orbital velocity, horizontal and vertical, ``[*B, N]`` each.
+
+    .. math::
+
+        \frac{\cosh k(h - d)}{\sinh kh} = \frac{e^{-kd} + e^{-k(2h - d)}}{1 - e^{-2kh}},\qquad
+        \frac{\sinh k(h - d)}{\sinh kh} = \frac{e^{-kd} - e^{-k(2h - d)}}{1 - e^{-2kh}}
+
+    with :math:`d = \min(\max(z, 0), h)` and :math:`e^{-k(2h - d)} = e^{-2kh}/e^{-kd}` from
+    :func:`seabed_factors` (taken from ``state`` if it holds them and ``water_depth`` is
+    ``None``). :math:`h` is ``water_depth``, else the state's ``water_depth``; a state without
+    one (a hand-made mapping) is deep water, both profiles :math:`e^{-kd}`. For
+    :math:`h = \infty` the formulas give exactly :math:`e^{-kd}` too. :math:`e^{-kd}` is
+    floored at the dtype's smallest normal number before the division: where it is smaller,
+    :math:`e^{-2kh} \le e^{-2kd}` is exactly 0.
+    """
+    k = state["wave_number"]
+    depth = position_ned[..., 2:3].clamp_min(0.0)
+    if water_depth is None and "wave_bed_mirror" in state:
+        bed = state
+    elif water_depth is None and "water_depth" not in state:
+        decay = torch.exp(k * -depth)
+        return decay, decay
+    else:
+        bed = seabed_factors(state, water_depth)
+    depth = torch.minimum(depth, bed["water_depth"].unsqueeze(-1))
+    near = torch.exp(k * -depth)  # e^{-kd}
+    # e^{-k(2h - d)}, the seabed's mirror image of the surface
+    image = bed["wave_bed_mirror"] / near.clamp_min(torch.finfo(near.dtype).tiny)
+    scale = bed["wave_bed_scale"]
+    return (near + image) * scale, (near - image) * scale
 
 
 def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -547,36 +804,69 @@ def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return (a.unsqueeze(-2) @ b.unsqueeze(-1))[..., 0, 0]
 
 
-def _horizontal(state: TensorDict, position_ned: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """North and east water velocity (m/s), ``[*B]`` each; no input checks (compile-friendly)."""
-    chi, decay = _phase_and_decay(state, position_ned)
-    weight = decay * torch.cos(chi)
+def _velocity(
+    state: Mapping[str, torch.Tensor],
+    position_ned: torch.Tensor,
+    water_depth: float | torch.Tensor | None = None,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """North, east and down water velocity (m/s), ``[*B]`` each; no input checks (compilable).
+
+    ``down`` is ``+0`` (never ``-0``) when there are no waves, so that a vehicle's
+    :math:`w_r = w - w_c` keeps the sign of zero of :math:`w` (the hull's angle of attack
+    ``atan2(w_r, u_r)`` jumps from :math:`\\pi` to :math:`-\\pi` with it when :math:`u_r < 0`).
+    """
+    chi = _phase(state, position_ned)
+    horizontal, vertical = _profiles(state, position_ned, water_depth)
+    weight = horizontal * torch.cos(chi)
     speed, direction = state["current_speed"], state["current_direction"]
     north = speed * torch.cos(direction) + _dot(weight, state["wave_un"])
     east = speed * torch.sin(direction) + _dot(weight, state["wave_ue"])
-    return north, east
+    down = 0.0 - _dot(vertical * torch.sin(chi), state["wave_ud"])  # 0 - (+-0) = +0
+    return north, east, down
 
 
-def _speed_and_direction(north: torch.Tensor, east: torch.Tensor) -> torch.Tensor:
-    """``[speed, direction]`` of a horizontal vector; exactly ``[0, 0]`` for a zero vector."""
+def _current(north: torch.Tensor, east: torch.Tensor, down: torch.Tensor) -> torch.Tensor:
+    """``[speed, direction, down]``; the direction is exactly 0 for a zero horizontal vector."""
     speed = torch.sqrt(north * north + east * east)
     direction = torch.where(speed > 0, torch.atan2(east, north), torch.zeros_like(speed))
-    return torch.stack((speed, direction), -1)
+    return torch.stack((speed, direction, down), -1)
 
 
-def water_velocity_at(state: TensorDict, position_ned: torch.Tensor) -> torch.Tensor:
+def water_velocity_at(
+    state: TensorDict,
+    position_ned: torch.Tensor,
+    water_depth: float | torch.Tensor | None = None,
+) -> torch.Tensor:
     r"""Total water velocity (current plus wave orbital) at ``position_ned``, NED, ``[*B, 3]`` m/s.
+
+    Finite-depth linear theory (module docstring): with :math:`h` the water depth and
+    :math:`d = \min(\max(z, 0), h)`,
+
+    .. math::
+
+        u_N + i\,u_E = V e^{i\beta} + \sum_j a_j\omega_j
+        \frac{\cosh k_j(h - d)}{\sinh k_j h}\cos\chi_j\,e^{i\theta_j},\qquad
+        u_D = -\sum_j a_j\omega_j \frac{\sinh k_j(h - d)}{\sinh k_j h}\sin\chi_j ,
+
+    which is :math:`e^{-k_j d}` for both profiles in deep water.
 
     Args:
         state: ocean state, batch ``[*B]``.
         position_ned: positions :math:`(x, y, z)` (m, NED, :math:`z` = depth, positive down),
-            ``[*B, 3]``; above the surface (:math:`z < 0`) the surface velocity applies.
+            ``[*B, 3]``; above the surface (:math:`z < 0`) the surface velocity applies, below
+            the seabed (:math:`z > h`) the seabed velocity.
+        water_depth: the *local* water depth :math:`h` (m, > 0, ``inf`` = deep) for the depth
+            profiles, a float or a tensor broadcasting to ``[*B]`` (e.g. the seabed depth
+            under each point); ``None`` (default) uses the state's ``water_depth`` (the
+            scene's, from :func:`reset_ocean`), or deep water if it has none. The phases always
+            use the state's wavenumbers (slowly varying depth, see the module docstring).
 
     Returns:
         :math:`(u_N, u_E, u_D)` (m/s, NED; :math:`u_D` positive down), ``[*B, 3]``.
 
     Raises:
-        ValueError: if ``position_ned`` is not shaped ``[*B, 3]``.
+        ValueError: if ``position_ned`` is not shaped ``[*B, 3]`` or ``water_depth`` is not
+            > 0 or does not broadcast to ``[*B]``.
 
     >>> g = torch.Generator().manual_seed(0)
     >>> water_velocity_at(reset_ocean("ideal", (), generator=g), torch.zeros(3)).tolist()
@@ -585,13 +875,12 @@ def water_velocity_at(state: TensorDict, position_ned: torch.Tensor) -> torch.Te
     >>> deep = water_velocity_at(state, torch.tensor([0.0, 0.0, 500.0]))  # waves die out
     >>> bool((deep[:2].norm() - state["current_speed"]).abs() < 1e-4), bool(deep[2].abs() < 1e-4)
     (True, True)
+    >>> shelf = reset_ocean("es", (), generator=g, water_depth=45.0)
+    >>> abs(water_velocity_at(shelf, torch.tensor([0.0, 0.0, 45.0]))[2].item()) < 1e-7  # bed
+    True
     """
-    _check_position(state, position_ned)
-    north, east = _horizontal(state, position_ned)
-    chi, decay = _phase_and_decay(state, position_ned)
-    amp_omega = state["wave_amplitude"] * state["wave_frequency"]
-    down = -_dot(decay * torch.sin(chi), amp_omega)
-    return torch.stack((north, east, down), -1)
+    _check_position(state, position_ned, water_depth)
+    return torch.stack(_velocity(state, position_ned, water_depth), -1)
 
 
 def surface_elevation_at(state: TensorDict, position_ned: torch.Tensor) -> torch.Tensor:
@@ -611,44 +900,57 @@ def surface_elevation_at(state: TensorDict, position_ned: torch.Tensor) -> torch
     tensor([0., 0.])
     """
     _check_position(state, position_ned)
-    chi, _ = _phase_and_decay(state, position_ned)
-    return _dot(torch.cos(chi), state["wave_amplitude"])
+    return _dot(torch.cos(_phase(state, position_ned)), state["wave_amplitude"])
 
 
 def current_from_state(
-    state: Mapping[str, torch.Tensor], position_ned: torch.Tensor
+    state: Mapping[str, torch.Tensor],
+    position_ned: torch.Tensor,
+    water_depth: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """:func:`current_at` without input checks, for compiled inner loops.
 
     ``state`` may be any mapping with the entries of :func:`reset_ocean` whose shapes
     broadcast against ``position_ned`` (e.g. scene entries with a singleton vehicle dim for a
-    fleet ``[*B, N, 3]``).
+    fleet ``[*B, N, 3]``); its ``water_depth`` entry, if ``water_depth`` is not given, may
+    itself be per vehicle (the local depth, ``[*B, N]``), and it may hold the
+    :func:`seabed_factors` of that depth (then used as they are: one exponential per
+    component per call instead of three). A mapping without ``water_depth`` is deep water.
     """
-    return _speed_and_direction(*_horizontal(state, position_ned))
+    return _current(*_velocity(state, position_ned, water_depth))
 
 
-def current_at(state: TensorDict, position_ned: torch.Tensor) -> torch.Tensor:
-    r"""Horizontal water velocity at the vehicle as ``[speed (m/s), direction (rad)]``, ``[*B, 2]``.
+def current_at(
+    state: TensorDict,
+    position_ned: torch.Tensor,
+    water_depth: float | torch.Tensor | None = None,
+) -> torch.Tensor:
+    r"""Water velocity at the vehicle as ``[speed (m/s), direction (rad), w_down (m/s)]``,
+    ``[*B, 3]``.
 
     This is the ``current`` argument of :func:`torchrl_auv.physics.remus100.step`: the
-    Gauss-Markov current plus the horizontal wave orbital velocity at the vehicle's position and
-    depth (the vertical orbital part is not an input of the vehicle model). The direction is
-    the one the water flows towards, in :math:`(-\pi, \pi]`, and exactly 0 when the water is
-    still (``ideal``).
+    Gauss-Markov current plus the wave orbital velocity at the vehicle's position and depth
+    (:func:`water_velocity_at`), its horizontal part as speed and direction (the one the water
+    flows towards, in :math:`(-\pi, \pi]`, exactly 0 when the water is still) and its vertical
+    part :math:`u_D` (positive down, ``+0`` without waves). Still water (``ideal``) gives
+    exactly ``[0, 0, 0]``, with which the vehicle model is exactly the PVS model.
 
     Args:
         state: ocean state, batch ``[*B]``.
         position_ned: vehicle positions :math:`(x, y, z)` (m, NED, :math:`z` = depth), ``[*B, 3]``.
+        water_depth: local water depth for the orbital profiles (m), as in
+            :func:`water_velocity_at`; ``None`` uses the state's.
 
     Raises:
-        ValueError: if ``position_ned`` is not shaped ``[*B, 3]``.
+        ValueError: if ``position_ned`` is not shaped ``[*B, 3]`` or ``water_depth`` is not
+            > 0 or does not broadcast to ``[*B]``.
 
     >>> g = torch.Generator().manual_seed(0)
     >>> state = reset_ocean("es", (4,), generator=g)
     >>> current_at(state, torch.tensor([[0.0, 0.0, 30.0]] * 4)).shape
-    torch.Size([4, 2])
+    torch.Size([4, 3])
     >>> current_at(reset_ocean("ideal", (2,), generator=g), torch.zeros(2, 3)).tolist()
-    [[0.0, 0.0], [0.0, 0.0]]
+    [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
     """
-    _check_position(state, position_ned)
-    return _speed_and_direction(*_horizontal(state, position_ned))
+    _check_position(state, position_ned, water_depth)
+    return _current(*_velocity(state, position_ned, water_depth))

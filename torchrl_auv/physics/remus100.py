@@ -13,7 +13,22 @@ State and units (NED earth frame, body frame ``x`` forward, ``y`` starboard, ``z
 * ``actuators = [delta_r, delta_s, n]``: the *stored* rudder and stern-plane angles (rad) and
   propeller speed (rpm). They may exceed the limits; saturation acts at the start of each step;
 * ``command``: the same three quantities, commanded (never clipped);
-* ``current = [V_c, beta_c]``: horizontal current speed (m/s) and direction (rad).
+* ``current = [V_c, beta_c]`` or ``[V_c, beta_c, w_c]``: horizontal current speed (m/s) and
+  direction (rad, the direction the water flows towards), and optionally the water's vertical
+  velocity :math:`w_c` (m/s, NED, positive down; e.g. the wave orbital velocity of
+  :func:`torchrl_auv.physics.ocean.current_at`). The 2-wide form is exactly the PVS model
+  (:math:`w_c = 0`), and so is a 3-wide one with :math:`w_c = +0`.
+
+*Vertical water velocity* (ours, spec ``data_collection.md`` v2, a departure from PVS, whose
+current is horizontal): PVS resolves the current in the body frame with the yaw angle only,
+:math:`u_c = V_c\cos(\beta_c - \psi)`, :math:`v_c = V_c\sin(\beta_c - \psi)`, i.e. it treats
+the body's :math:`x`-:math:`y` plane as horizontal. Consistently, :math:`w_c` is subtracted from
+the body-frame heave, :math:`w_r = w - w_c`, as if the body :math:`z` axis were vertical (the
+exact body components, :math:`w_c[-\sin\theta, \cos\theta\sin\phi, \cos\theta\cos\phi]`,
+differ by the order of the pitch and roll angles, a few degrees). :math:`\dot\nu_c` keeps
+PVS's yaw-rate terms only (yaw does not rotate a vertical velocity). The water's acceleration
+(Froude-Krylov and added-mass forces of the orbital flow) is not modelled, for the vertical
+as for the horizontal part: the flow acts only through the relative velocity :math:`\nu_r`.
 
 Sign conventions: ``delta_r > 0`` turns the vehicle to starboard (positive yaw rate),
 ``delta_s > 0`` pitches the nose down so the vehicle dives, ``n > 0`` gives forward thrust.
@@ -357,7 +372,9 @@ def dynamics(
                   - C(\nu_r)\nu_r - D(U_r)\nu_r - g(\eta)\big)
 
     with :math:`\nu_r = \nu - \nu_c`, :math:`\nu_c = [V_c\cos(\beta_c-\psi),
-    V_c\sin(\beta_c-\psi), 0, 0, 0, 0]` and :math:`\dot\nu_c = [r v_c, -r u_c, 0, 0, 0, 0]`.
+    V_c\sin(\beta_c-\psi), w_c, 0, 0, 0]` and :math:`\dot\nu_c = [r v_c, -r u_c, 0, 0, 0, 0]`,
+    :math:`w_c` the vertical water velocity (m/s, positive down) when ``current`` is
+    ``[*B, 3]``, else 0 (PVS: :math:`w_r = w`; see the module docstring for the approximation).
     :math:`C = C_{RB}(\nu_r) + C_A(\nu_r)` (eight Munk entries of :math:`C_A` removed),
     :math:`D` diagonal with surge and sway faded by :math:`e^{-3U_r}`, :math:`\tau_{ld}` the hull
     lift/drag at the angle of attack :math:`\alpha = \operatorname{atan2}(w_r, u_r)`,
@@ -384,7 +401,9 @@ def dynamics(
     # 1-2. current in the body frame (yaw only) and relative velocity
     u_c = speed_c * torch.cos(beta_c - psi)
     v_c = speed_c * torch.sin(beta_c - psi)
-    u_r, v_r, w_r = u - u_c, v - v_c, w
+    # the vertical water velocity, if given, acts along body z (yaw-only resolution, as PVS)
+    w_r = w - current[..., 2] if current.shape[-1] == 3 else w
+    u_r, v_r = u - u_c, v - v_c
     alpha = torch.atan2(w_r, u_r)
     speed = torch.sqrt(u * u + v * v + w * w)
     speed_r_sq = u_r * u_r + v_r * v_r + w_r * w_r
@@ -532,15 +551,14 @@ def kinematics(eta: torch.Tensor, nu: torch.Tensor) -> torch.Tensor:
     return torch.stack((x_dot, y_dot, z_dot, phi_dot, theta_dot, psi_dot), -1)
 
 
-def _check_inputs(tensors: dict[str, torch.Tensor], widths: dict[str, int], dt) -> None:
+def _check_inputs(tensors: dict[str, torch.Tensor], widths: dict[str, tuple[int, ...]], dt) -> None:
     dtype = None
     for name, tensor in tensors.items():
         if not isinstance(tensor, torch.Tensor):
             raise ValueError(f"{name} must be a torch.Tensor, got {type(tensor).__name__}")
-        if tensor.ndim == 0 or tensor.shape[-1] != widths[name]:
-            raise ValueError(
-                f"{name} must be shaped [*B, {widths[name]}], got {tuple(tensor.shape)}"
-            )
+        if tensor.ndim == 0 or tensor.shape[-1] not in widths[name]:
+            allowed = " or ".join(f"[*B, {w}]" for w in widths[name])
+            raise ValueError(f"{name} must be shaped {allowed}, got {tuple(tensor.shape)}")
         if not tensor.is_floating_point():
             raise ValueError(f"{name} must be a floating tensor, got {tensor.dtype}")
         if dtype is None:
@@ -564,7 +582,7 @@ def _check_inputs(tensors: dict[str, torch.Tensor], widths: dict[str, int], dt) 
         raise ValueError(f"dt must be > 0 (seconds), got {dt}")
 
 
-_WIDTHS = {"eta": 6, "nu": 6, "actuators": 3, "command": 3, "current": 2}
+_WIDTHS = {"eta": (6,), "nu": (6,), "actuators": (3,), "command": (3,), "current": (2, 3)}
 
 
 def _check_step_inputs(eta, nu, actuators, command, current, dt) -> None:
@@ -596,7 +614,9 @@ def step(
         nu: ``[*B, 6]`` body velocities relative to the earth (m/s, rad/s).
         actuators: ``[*B, 3]`` stored rudder (rad), stern plane (rad), propeller (rpm).
         command: ``[*B, 3]`` actuator commands, same units (never clipped).
-        current: ``[*B, 2]`` current speed (m/s) and direction (rad).
+        current: ``[*B, 2]`` current speed (m/s) and direction (rad), or ``[*B, 3]`` with the
+            vertical water velocity :math:`w_c` (m/s, positive down) as the third column
+            (:math:`w_r = w - w_c`; see the module docstring).
         dt: step ``h`` in seconds (> 0), a float or a tensor broadcastable to ``[*B, 1]``.
         params: vehicle parameters (default REMUS-100).
 

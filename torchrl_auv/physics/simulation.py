@@ -1,7 +1,8 @@
 """The vehicle in its ocean: one REMUS-100 step driven by the current at the vehicle.
 
 :func:`step_in_ocean` evaluates :func:`torchrl_auv.physics.ocean.current_at` at the vehicle's
-position and depth and passes it to :func:`torchrl_auv.physics.remus100.step`.
+position and depth (horizontal current and orbital velocity as speed and direction, plus the
+vertical orbital velocity) and passes it to :func:`torchrl_auv.physics.remus100.step`.
 :func:`compiled_step_in_ocean` fuses both through ``torch.compile``; on the 2-core development
 machine it ran 4096 vehicles (100 wave components each) in ~1.1 ms per step instead of ~6 ms,
 and one vehicle in ~55 us instead of ~500 us (``benchmarks/bench_physics.py``). Advance the
@@ -18,8 +19,8 @@ from torchrl_auv.physics import ocean, remus100
 __all__ = ["compiled_step_in_ocean", "step_in_ocean"]
 
 
-def _step_in_ocean(eta, nu, actuators, command, ocean_state, dt, params=None):
-    current = ocean.current_at(ocean_state, eta[..., :3])
+def _step_in_ocean(eta, nu, actuators, command, ocean_state, dt, params=None, water_depth=None):
+    current = ocean.current_at(ocean_state, eta[..., :3], water_depth)
     return remus100.step(eta, nu, actuators, command, current, dt, params)
 
 
@@ -31,6 +32,7 @@ def step_in_ocean(
     ocean_state: TensorDict,
     dt: float,
     params: remus100.Remus100Params | None = None,
+    water_depth: float | torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """One REMUS-100 step in the current (plus wave orbital velocity) at the vehicle.
 
@@ -40,6 +42,9 @@ def step_in_ocean(
             :func:`~torchrl_auv.physics.ocean.step_ocean`, batch shape ``[*B]``.
         dt: step in seconds.
         params: vehicle parameters (default REMUS-100).
+        water_depth: local water depth under each vehicle (m, float or ``[*B]``) for the
+            orbital-velocity profiles; ``None`` uses the ocean state's (see
+            :func:`~torchrl_auv.physics.ocean.water_velocity_at`).
 
     >>> g = torch.Generator().manual_seed(0)
     >>> sea = ocean.reset_ocean("es", (2,), generator=g)
@@ -49,7 +54,7 @@ def step_in_ocean(
     >>> act[:, 2].tolist()
     [76.25, 76.25]
     """
-    return _step_in_ocean(eta, nu, actuators, command, ocean_state, dt, params)
+    return _step_in_ocean(eta, nu, actuators, command, ocean_state, dt, params, water_depth)
 
 
 _COMPILED: dict[str, object] = {}
@@ -63,6 +68,7 @@ def compiled_step_in_ocean(
     ocean_state: TensorDict,
     dt: float,
     params: remus100.Remus100Params | None = None,
+    water_depth: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """:func:`step_in_ocean` through ``torch.compile`` (inputs validated eagerly first).
 
@@ -74,12 +80,13 @@ def compiled_step_in_ocean(
             f"ocean_state batch {tuple(ocean_state.batch_size)} must equal eta's "
             f"{tuple(eta.shape[:-1])}"
         )
+    ocean._check_position(ocean_state, eta[..., :3], water_depth)
     fn = _COMPILED.get("fn")
     if fn is None:
         fn = _COMPILED["fn"] = torch.compile(_compiled_body, fullgraph=True, dynamic=False)
-    return fn(eta, nu, actuators, command, ocean_state, dt, params)
+    return fn(eta, nu, actuators, command, ocean_state, dt, params, water_depth)
 
 
-def _compiled_body(eta, nu, actuators, command, ocean_state, dt, params=None):
-    current = ocean.current_from_state(ocean_state, eta[..., :3])
+def _compiled_body(eta, nu, actuators, command, ocean_state, dt, params=None, water_depth=None):
+    current = ocean.current_from_state(ocean_state, eta[..., :3], water_depth)
     return remus100.step_unchecked(eta, nu, actuators, command, current, dt, params)

@@ -16,7 +16,17 @@ import torch
 
 from torchrl_auv.control import make_controller, wrap_angle
 from torchrl_auv.control.scenarios import Trace, simulate, tracking_errors, tracking_schedule
-from torchrl_auv.estimation import Localiser, SensorNoise, compass, depth_sensor, dvl, usbl_fix
+from torchrl_auv.estimation import (
+    Localiser,
+    SensorNoise,
+    compass,
+    depth_sensor,
+    dvl,
+    dvl_bottom_lock,
+    gnss_error_init,
+    gnss_error_step,
+    usbl_fix_from_asv,
+)
 from torchrl_auv.physics import ocean
 from torchrl_auv.physics.remus100 import rotation_matrix
 
@@ -28,7 +38,11 @@ class KalmanObserver:
 
     Every physics step: KF predict, then a DVL + depth + compass update; every
     ``fix_every`` steps a USBL fix from an ASV at the surface (``asv_offset`` m north of the
-    vehicle, keeping station) with the sea state's noise. The controller gets
+    vehicle, keeping station) with the sea state's errors
+    (:func:`~torchrl_auv.estimation.usbl_fix_from_asv`: range and bearing noise with the ASV's
+    attitude residual, dropouts, and the ASV's Gauss-Markov GNSS error as the fix's bias). The
+    DVL has bottom lock everywhere unless ``seabed_depth`` (m) is given; then only where the
+    altitude ``seabed_depth - z`` is at most ``noise.dvl_range``. The controller gets
     ``eta_hat = [KF position, roll, pitch, compass heading]`` and
     ``nu_hat = [R^T v_KF, p, q, r]`` (attitude and rates from the AHRS are taken as exact).
 
@@ -48,6 +62,7 @@ class KalmanObserver:
         fix_every: int = 20,
         asv_offset: float = 30.0,
         noise: SensorNoise | None = None,
+        seabed_depth: float | None = None,
     ) -> None:
         self.sea = ocean.get_sea_state(sea_state)
         self.generator = generator
@@ -56,8 +71,9 @@ class KalmanObserver:
         self.asv_offset = asv_offset
         self.noise = SensorNoise() if noise is None else noise
         self.localiser = Localiser(self.noise)
+        self.seabed_depth = seabed_depth
         self.batch_shape = tuple(batch_shape)
-        self.mean = self.cov = None
+        self.mean = self.cov = self.gnss_error = None
         self.usbl_error_sq: list[float] = []
         self.kf_error_sq: list[float] = []
 
@@ -69,22 +85,37 @@ class KalmanObserver:
             self.mean, self.cov = loc.predict(self.mean, self.cov, self.dt)
         heading = compass(eta[..., 5], noise.compass, g)
         attitude = torch.stack((eta[..., 3], eta[..., 4], heading), -1)
+        locked = None
+        if self.seabed_depth is not None:
+            locked = dvl_bottom_lock(self.seabed_depth - eta[..., 2], noise.dvl_range)
         self.mean, self.cov = loc.update_onboard(
             self.mean,
             self.cov,
             dvl(nu, noise.dvl, g),
             attitude,
             depth_sensor(eta[..., 2], noise.depth, g),
+            dvl_valid=locked,
         )
         if k % self.fix_every == 0:
+            sea = self.sea
+            if self.gnss_error is None:
+                self.gnss_error = gnss_error_init(
+                    (*eta.shape[:-1], 2), sea.gnss_sigma, g, dtype=eta.dtype
+                )
+            else:
+                self.gnss_error = gnss_error_step(
+                    self.gnss_error, sea.gnss_sigma, sea.gnss_time_constant,
+                    self.fix_every * self.dt, g,
+                )  # fmt: skip
             asv = torch.zeros_like(eta[..., :3])
             asv[..., 0] = eta[..., 0] + self.asv_offset
             asv[..., 1] = eta[..., 1]
-            fix, fix_cov, valid = usbl_fix(
-                eta[..., :3], asv, self.sea.usbl_noise_fraction, self.sea.usbl_bearing_sigma, g
-            )
+            fix, fix_cov, valid = usbl_fix_from_asv(eta[..., :3], asv, self.gnss_error, sea, g)
             self.mean, self.cov = loc.update_usbl(self.mean, self.cov, fix, fix_cov, valid)
-            self.usbl_error_sq.append((fix - eta[..., :3]).square().sum(-1).mean().item())
+            if valid.any():  # the raw fixes' error, over the fixes that arrived
+                self.usbl_error_sq.append(
+                    (fix - eta[..., :3])[valid].square().sum(-1).mean().item()
+                )
             self.kf_error_sq.append(
                 (self.mean[..., :3] - eta[..., :3]).square().sum(-1).mean().item()
             )
@@ -95,7 +126,8 @@ class KalmanObserver:
         return eta_hat, nu_hat
 
     def rms(self) -> tuple[float, float]:
-        """RMS position error (m) of the KF and of the raw USBL fixes, at fix times."""
+        """RMS position error (m) of the KF and of the raw USBL fixes (those that arrived), at
+        fix times."""
         mean = lambda xs: sum(xs) / max(len(xs), 1)  # noqa: E731
         return mean(self.kf_error_sq) ** 0.5, mean(self.usbl_error_sq) ** 0.5
 
