@@ -35,6 +35,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--schedule", choices=("linear", "cosine"), default="linear")
     parser.add_argument("--ema-decay", type=float, default=None)
     parser.add_argument("--heldout-fraction", type=float, default=0.1)
+    parser.add_argument(
+        "--keep-overridden",
+        action="store_true",
+        help="also train on decisions the env overrode (station keeping)",
+    )
     parser.add_argument("--logger", default="csv", help="TorchRL logger backend or ''")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
@@ -76,7 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         proposer, data, steps=args.steps, batch_size=args.batch_size, lr=args.lr,
         heldout_fraction=args.heldout_fraction, ema_decay=args.ema_decay, logger=logger,
         seed=args.seed, log_every=max(1, args.steps // 100),
-        eval_every=max(1, args.steps // 10),
+        eval_every=max(1, args.steps // 10), skip_overridden=not args.keep_overridden,
     )  # fmt: skip
     proposer.save(out / "proposer.pt")
     plot_pretraining_loss(result.steps, result.losses, out / "loss.png",
@@ -88,6 +93,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     plot_candidate_stages(stages[0], out / "candidates.png")
     metrics = {
         "samples": len(data),
+        "overridden_samples": int(data["overridden"].sum()) if "overridden" in data.keys() else 0,
+        "trained_on_overridden": bool(args.keep_overridden),
         "final_training_loss": result.losses[-1],
         "heldout_loss": result.heldout_loss,
         "steps": args.steps,

@@ -80,8 +80,8 @@ def test_bad_input(tmp_path):
 def test_data_collection_samples_are_per_auv_and_chunks_stay_in_their_episode():
     data = collect_demonstrations("data_collection", episodes=2, max_steps=5, horizon=3, history=4)
     assert data.batch_size == (2 * 2 * 5,)  # scenes x AUVs x decisions
-    assert data["observation"].shape == (20, 31)
-    assert data["history", "observation"].shape == (20, 4, 31)
+    assert data["observation"].shape == (20, 37)
+    assert data["history", "observation"].shape == (20, 4, 37)
     assert data["history", "action"].shape == (20, 4, 3)
     assert sorted(set(data["agent"].tolist())) == [0, 1]
     for i in range(20):
@@ -91,6 +91,24 @@ def test_data_collection_samples_are_per_auv_and_chunks_stay_in_their_episode():
                 torch.testing.assert_close(data["action_chunk"][i, h], data["action"][i + h])
         if t > 0:
             torch.testing.assert_close(data["history", "action"][i, -1], data["action"][i - 1])
+
+
+def test_overridden_decisions_are_marked_and_end_the_chunks_before_them():
+    """Decisions the env overrode (station keeping in service) carry ``overridden`` (the
+    env's own flag, recomputed here from the rollout), and a chunk stops at the first later
+    overridden decision: it only holds actions that were executed."""
+    data = collect_demonstrations("data_collection", episodes=2, max_steps=150, horizon=8,
+                                  history=2, rate_model="paper", seed=2)  # fmt: skip
+    flags = data["overridden"]
+    assert flags.dtype == torch.bool and flags.any() and (~flags).any()
+    rows = data.reshape(2 * 2, 150)  # [scene x AUV, decision]
+    over = rows["overridden"]
+    for r in range(4):
+        for t in range(150):
+            mask = rows["action_chunk_mask"][r, t]
+            stop = next((h for h in range(1, 8) if t + h < 150 and over[r, t + h]), None)
+            expected = min(8, 150 - t) if stop is None else min(stop, 150 - t)
+            assert int(mask.sum()) == expected and bool(mask[: int(mask.sum())].all())
 
 
 def test_chunks_never_cross_an_episode_end():
@@ -117,5 +135,5 @@ def test_cli_writes_a_data_collection_dataset(tmp_path):
     buffer = load_demonstrations(out)
     assert len(buffer) == 8  # 1 scene x 2 AUVs x 4 decisions
     batch = buffer.sample(3)
-    assert batch["history", "observation"].shape == (3, 10, 31)
+    assert batch["history", "observation"].shape == (3, 10, 37)
     assert batch["action_chunk"].shape == (3, 8, 3)

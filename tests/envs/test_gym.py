@@ -38,14 +38,14 @@ def test_registration_is_idempotent():
     register_gymnasium_ids()
     importlib.reload(torchrl_auv.envs)
     assert "torchrl_auv/Tracking-v0" in gymnasium.registry
-    assert "torchrl_auv/DataCollection-v0" in gymnasium.registry
+    assert "torchrl_auv/DataCollection-v1" in gymnasium.registry
 
 
 def test_data_collection_id_passes_the_env_checker():
-    env = gymnasium.make("torchrl_auv/DataCollection-v0", num_auvs=2, max_steps=4)
+    env = gymnasium.make("torchrl_auv/DataCollection-v1", num_auvs=2, max_steps=4)
     check_env(env.unwrapped, skip_render_check=True)
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (62,) and env.action_space.shape == (6,)
+    assert obs.shape == (74,) and env.action_space.shape == (6,)
     done, info = False, {}
     while not done:
         _, reward, terminated, truncated, info = env.step(env.action_space.sample())

@@ -91,7 +91,7 @@ def test_nodes_lie_on_the_seabed_with_spec_rates_and_fill():
     buffer = nodes["buffer"]
     assert (buffer >= 0).all() and (buffer <= 1000).all() and (buffer == buffer.round()).all()
     assert abs(buffer.mean().item() - 500.0) < 30.0  # 960 draws of U{0..1000}: sd of mean ~9.3
-    assert not nodes["served"].any()
+    assert (nodes["services"] == 0).all() and nodes["services"].dtype == torch.long
 
 
 def test_poisson_arrivals_mean_matches_rate():
@@ -171,8 +171,8 @@ def test_step_any_batch_shape_and_dtype(batch):
         state, events = step(state, pos, cfg, generator=g)
         speed = torch.ones(*batch, 2, dtype=torch.float64)
         acc = metrics.update(acc, events, speed, speed)
-        cost, reward, _ = task_cost(events, speed, state["nodes", "rate"], cfg)
-        assert cost.shape == reward.shape == (*batch, 2) and cost.dtype == torch.float64
+        cost, _ = task_cost(events, speed, state["nodes", "buffer"], state["nodes", "rate"], cfg)
+        assert cost.shape == (*batch, 2) and cost.dtype == torch.float64
     assert events["rate"].dtype == torch.float64 and events["overflow"].shape == batch
     out = metrics.finalize(acc)
     assert all(out[k].shape == batch for k in out.keys())

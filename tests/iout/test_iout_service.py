@@ -1,9 +1,11 @@
-"""Service: parked AUV hovers Q (b / C_max) / R seconds, then the node is served and emptied."""
+"""Service: a parked AUV holds station Q (b / C_max) / R seconds, then the node is emptied;
+the last decision counts its fraction; a node is a target again once refilled above 10 %."""
 
 from __future__ import annotations
 
 import math
 
+import pytest
 import torch
 
 from torchrl_auv.iout import IoUTConfig, gather_nodes, link_rate, reset_state, step
@@ -40,23 +42,63 @@ def test_parked_auv_completes_service_after_the_hover_time():
     assert abs(state["auvs", "service_remaining"].item() - hover_s) < 1e-9
     assert abs(state["auvs", "service_rate"].item() - rate) < 1e-6
 
-    ssn, rates = 0, []
+    ssn, rates, times = 0, [], []
     for k in range(hover_decisions):
         state, events = step(state, parked, cfg, generator=_gen(2 + k))
         assert events["hovering"].item()
         rates.append(events["rate"].item())
+        times.append(events["service_time"].item())
         ssn += int(events["completed"].sum())
         if k < hover_decisions - 1:
             assert not events["completed"].item() and state["auvs", "in_service"].item()
     assert events["completed"].item() and ssn == 1
     assert rates == [rate] * hover_decisions
+    # whole decisions, then the fraction left: the times add up to the hover time exactly,
+    # so the data delivered (rate x time) is the buffer's Q b / C_max
+    last = hover_s - (hover_decisions - 1) * cfg.decision_dt_s
+    assert times[:-1] == [1.0] * (hover_decisions - 1) and times[-1] == pytest.approx(last)
+    delivered = sum(r * t for r, t in zip(rates, times, strict=True))
+    assert delivered == pytest.approx(cfg.data_volume_bits * fill / cfg.buffer_capacity)
     served_node = target.item()
     assert state["nodes", "buffer"][0, served_node].item() == 0.0
-    assert state["nodes", "served"][0, served_node].item()
-    assert state["nodes", "served"].sum().item() == 1
+    assert state["nodes", "services"][0, served_node].item() == 1
+    assert state["nodes", "services"].sum().item() == 1
     assert not state["auvs", "in_service"].item()
     new_target = state["auvs", "target"].item()
     assert new_target not in (served_node, -1)  # heads for the next node
+
+
+def test_a_served_node_is_a_target_again_once_refilled_above_the_threshold():
+    """One node, one AUV: after its service the node is empty and no target; it becomes the
+    target again the decision its buffer reaches refill_fraction * C_max (here 500 packets at
+    a fixed 100 per decision: 5 decisions), and a second service counts (SSN 2 > M = 1)."""
+    cfg = IoUTConfig(num_auvs=1, num_sensors=1, refill_fraction=0.1)
+    state, _ = _quiet_scene(cfg, 2500.0)
+    node = gather_nodes(state["nodes", "position"], state["auvs", "target"])
+    parked = node - torch.tensor([6.0, 0.0, 8.0], dtype=torch.float64)
+    away = parked + torch.tensor([500.0, 0.0, 0.0], dtype=torch.float64)
+    services = 0
+    for k in range(200):  # serve it
+        state, events = step(state, parked, cfg, generator=_gen(10 + k))
+        services += int(events["completed"].sum())
+        if services:
+            break
+    assert services == 1 and state["auvs", "target"].item() == -1
+    # deterministic refill: 100 packets per decision (a Poisson draw with a huge rate would
+    # be random); the threshold is 500 packets
+    fills = []
+    for k in range(7):
+        state["nodes", "buffer"] = state["nodes", "buffer"] + 100.0
+        state, _ = step(state, away, cfg, generator=_gen(300 + k))
+        fills.append((state["nodes", "buffer"].item(), state["auvs", "target"].item()))
+    assert [t for b, t in fills if b < 500.0] == [-1] * sum(b < 500.0 for b, _ in fills)
+    assert all(t == 0 for b, t in fills if b >= 500.0) and fills[-1][1] == 0
+    for k in range(200):  # and serve it again
+        state, events = step(state, parked, cfg, generator=_gen(400 + k))
+        services += int(events["completed"].sum())
+        if services == 2:
+            break
+    assert state["nodes", "services"].item() == 2
 
 
 def test_service_starts_only_inside_the_radius_and_empties_arrivals_too():

@@ -52,3 +52,30 @@ def test_the_pretraining_loss_falls():
                                log_every=50, eval_every=100)  # fmt: skip
     assert result.losses[-1] < 0.75 * result.losses[0]
     assert result.heldout_losses[-1] < result.heldout_losses[0]
+
+
+def test_pretraining_leaves_the_overridden_decisions_out_by_default():
+    """Demonstrated actions of overridden decisions (never executed) must not be imitated:
+    half the samples say +0.9 but are overridden, the other half say -0.9; trained with the
+    default the proposer proposes -0.9, with ``skip_overridden=False`` both modes."""
+    from tensordict import TensorDict
+
+    from torchrl_auv.objectives import pretrain_proposer
+
+    n = 512
+    overridden = torch.arange(n) % 2 == 0
+    chunk = torch.where(overridden, 0.9, -0.9)[:, None, None].expand(n, 4, 2).clone()
+    data = TensorDict({"observation": torch.zeros(n, 3), "action_chunk": chunk,
+                       "overridden": overridden}, batch_size=[n])  # fmt: skip
+    means = {}
+    for skip in (True, False):
+        torch.manual_seed(0)
+        proposer = DiffusionProposer(3, 2, horizon=4, num_inference_steps=10,
+                                     num_candidates=200)  # fmt: skip
+        pretrain_proposer(proposer, data, steps=300, batch_size=64, lr=1e-3, skip_overridden=skip,
+                          heldout_fraction=0.0)  # fmt: skip
+        candidates, _ = proposer.sample(torch.zeros(1, 3),
+                                        generator=torch.Generator().manual_seed(1))  # fmt: skip
+        means[skip] = (candidates[..., 0, 0] > 0).float().mean().item()  # share near +0.9
+    assert means[True] < 0.05  # only the executed (-0.9) actions
+    assert 0.2 < means[False] < 0.8  # both modes

@@ -25,7 +25,12 @@ from torchrl_auv.envs.vehicles import (
     add_tracking_sums,
     tracking_errors,
 )
-from torchrl_auv.estimation import usbl_fix
+from torchrl_auv.estimation import (
+    altimeter,
+    gnss_error_init,
+    gnss_error_step,
+    usbl_fix_from_asv,
+)
 from torchrl_auv.physics import ocean
 from torchrl_auv.physics.limits import diverged
 
@@ -51,115 +56,144 @@ VEHICLE_FEATURES = (
 #: names of the per-AUV observation entries, in order
 AGENT_OBSERVATION_FEATURES = iout.OBSERVATION_FEATURES + VEHICLE_FEATURES
 
-_HOVER_RPM = 760.0  # the action's (and the vehicle's) slowest propeller speed
-_LOITER_LEAD = 0.5  # rad: while in service the heading setpoint leads the compass by this
 _START_RPM = 1200.0
 _EC_SPEED_LIMIT = 3.0  # m/s; the EC model's efficiency polynomial reaches 0 at 3.25 m/s
 _START_SPEED = 1.5  # m/s
 _ASV_SPEED = 2.0  # m/s, the ASV's top speed while it follows the fleet
+_ADCP_SIGMA = 0.05  # m/s per axis: the vehicle's estimate of the current (ours)
+_ALTIMETER_SIGMA = 0.1  # m (ours)
+_ALTIMETER_RANGE = 30.0  # m: the DVL's bottom-lock range, the altitude it measures (ours)
 
 
 class DataCollectionEnv(EnvBase):
-    r"""Multi-AUV data collection from underwater sensor nodes (env card).
+    r"""Multi-AUV data collection from underwater sensor nodes (env card, spec v2).
 
     **Description.** ``num_auvs`` REMUS-100s (default 2) collect data from ``num_sensors``
     (default 60) sensor nodes on a random seabed, 39-58 m deep, in a 200 m x 200 m area. Each
     node fills its buffer with Poisson data (rate 4, 6, 9 or 12 packets per decision, capacity
-    5000). The env assigns every AUV the unserved node of highest priority
-    :math:`\lambda_i b_i / C_{max} - 0.05 d_i` (two AUVs never share one); within 18 m (3-D)
-    service starts and the AUV hovers for :math:`Q (b_i/C_{max}) / R(d)` s (Q = 2 Mbit,
-    :math:`R` the acoustic link rate, ``rate_model`` "shannon" or "paper"), after which the
-    node's buffer is empty and the node counts as served (once per episode). An ASV at the
-    surface follows the fleet's centroid (at most 2 m/s) and gives each AUV a USBL fix per
-    decision; the AUVs navigate on a Kalman filter fusing USBL, DVL, depth and compass.
-    Physics and the low-level controller run at 20 Hz, the agent decides at 1 Hz.
+    5000). The env assigns every AUV a node of highest priority
+    :math:`\lambda_i b_i / C_{max} - 0.05 d_i` among those filled to at least 10 % (two AUVs
+    never share one; an AUV keeps its target until it is served,
+    ``retarget_every_decision=False``); within 18 m (3-D) service starts and lasts
+    :math:`Q (b_i/C_{max}) / R(d)` s (Q = 2 Mbit, :math:`R` the acoustic link rate at the start,
+    ``rate_model`` "shannon" or "paper"), after which the node's buffer is empty; it becomes a
+    target again once refilled above 10 %. An ASV at the surface follows the fleet's centroid
+    (at most 2 m/s) and gives each AUV a USBL fix per decision, converted to NED from its
+    GNSS position (Gauss-Markov error, 1 / 1.5 / 2 m in ideal / es / ves), with bearing noise
+    growing with the waves and dropouts (0 / 5 / 20 %); the AUVs navigate on a Kalman filter
+    fusing USBL, DVL (bottom lock within 30 m altitude), depth and compass. Finite-depth waves
+    reach the vehicle with their vertical velocity. Physics and the low-level controller run at
+    20 Hz, the agent decides at 1 Hz.
 
-    *Hovering.* The REMUS-100 cannot hover (its propeller does not run below 760 rpm here), so
-    while an AUV is in service the env overrides its action: the propeller runs at 760 rpm,
-    the heading setpoint leads the compass heading by 0.5 rad (a steady turn at full rudder,
-    toward the side of the area's centre, chosen when the service starts) and the depth
-    setpoint is held. The AUV loiters on a circle of about 17 m radius near the node; the link
-    rate is frozen at the start of the service (``torchrl_auv.iout.service``).
+    *Station keeping.* The REMUS-100 cannot hover and turns on a circle of about 20 m radius,
+    wider than the service radius, so while an AUV is in service the env overrides its action
+    with :func:`~torchrl_auv.iout.station_keeping_setpoints`: bow into the current with the
+    propeller matching it (stopped in still water), 8 m above the seabed the altimeter sees
+    (``station_keeping``, :class:`~torchrl_auv.iout.StationKeepingConfig`). ``"overridden"``
+    marks those AUV-decisions. An AUV that arrives bow downstream must turn round first and may
+    drift out of the service radius; the expert arrives from downstream.
 
     **Action** ``("agents", "action")`` ``[*B, N, 3]`` in [-1, 1] (``"action"`` ``[*B, 3 N]``
     with ``flatten_agents=True``), per AUV:
 
-    ====  ==============================  ===================================
+    ====  ==============================  ===================================================
     idx   meaning                         effect
-    ====  ==============================  ===================================
-    0     depth setpoint change           ``z_sp += 0.8 a0`` m (kept in [0, seabed])
+    ====  ==============================  ===================================================
+    0     depth setpoint change           ``z_sp += 0.8 a0`` m (>= 0, and at least 1 m above
+                                          the seabed the altimeter sees, when it sees it)
     1     heading setpoint change         ``psi_sp += 0.15 a1`` rad
     2     propeller speed                 ``n_sp = 380 (a2 + 3)`` rpm (760-1520)
-    ====  ==============================  ===================================
+    ====  ==============================  ===================================================
 
-    **Observation** ``("agents", "observation")`` ``[*B, N, 31]`` float32 (``"observation"``
-    ``[*B, 31 N]`` flat), computed from the Kalman estimate, never the true pose. Entries 0-16
-    are the task features of :mod:`torchrl_auv.iout.observation` (target offset and distance,
-    target fill and rate, has-target, in-service, hover time left, altitude, depth, nearest
-    AUV offset and distance, served fraction, time fraction); entries 17-30 are
-    :data:`VEHICLE_FEATURES`: body velocity ``u^, v^, w^`` (m/s), rates ``p, q, r`` (rad/s),
-    roll and pitch (rad), ``sin``/``cos`` of the compass heading, ``(z_sp - z^)/10``,
-    ``sin``/``cos`` of ``psi_sp - psi^`` and ``n_sp / 1525``.
+    **Observation** ``("agents", "observation")`` ``[*B, N, 37]`` float32 (``"observation"``
+    ``[*B, 37 N]`` flat), computed from the Kalman estimate and the vehicle's own sensors, never
+    the true pose. Entries 0-22 are the task features of :mod:`torchrl_auv.iout.observation`
+    (target offset and distance, target fill and rate, has-target, in-service, hover time
+    left, altimeter altitude, depth, nearest AUV offset and distance, services so far, time
+    fraction of ``max_steps``, the signed distances to the four edges, the current estimate
+    north and east); entries 23-36 are :data:`VEHICLE_FEATURES`: body velocity ``u^, v^, w^``
+    (m/s), rates ``p, q, r`` (rad/s), roll and pitch (rad), ``sin``/``cos`` of the compass
+    heading, ``(z_sp - z^)/10``, ``sin``/``cos`` of ``psi_sp - psi^`` and ``n_sp / 1525``.
+    The altimeter reads the altitude with 0.1 m noise up to 30 m (beyond: 30); the current
+    estimate is the scene's current with 0.05 m/s noise per axis (an ADCP, ours).
 
     **Cost and reward** ``("agents", "cost" | "reward")`` ``[*B, N, 1]``, per AUV
-    (:func:`torchrl_auv.iout.task_cost`, weights :class:`~torchrl_auv.iout.CostWeights`):
+    (:func:`torchrl_auv.iout.task_cost`, weights :class:`~torchrl_auv.iout.CostWeights`), every
+    term clipped to [0, 1] before its weight:
 
     .. math::
 
-        c_j = w_d \min(1, d_j/D) + w_p \frac{\max(0, -\Delta_j)}{2\,\mathrm{m/s}\cdot 1\,\mathrm{s}}
-            + w_e \frac{P_j}{500\,\mathrm{W}} + w_c 1[\text{collision}_j]
-            + w_v 1[\text{violation}_j] + w_o \frac{N_{DO}}{\sum_i \lambda_i}
+        c_j = w_d \min(1, \tfrac{d_j}{D}) + w_p \min(1, \tfrac{\max(0, -\Delta_j)}{2\,\mathrm{m}})
+            + w_e \min(1, \tfrac{P_j}{500\,\mathrm{W}}) + w_c 1[\text{collision}_j]
+            + w_v 1[\text{violation}_j]
+            + \tfrac{1}{N}\big(w_b \tfrac{\sum_i b_i}{M C_{max}}
+            + w_o \min(1, \tfrac{N_{DO}}{\sum_i \lambda_i})\big)
             \;(+\ c_{term} \text{ for the AUV that ends the episode}),
 
-    with :math:`P_j` the EC model's power at the AUV's mean speed through the water over the
-    decision (capped at 3 m/s, inside the model's domain: its efficiency polynomial reaches 0
-    at 3.25 m/s, which wave orbital velocities in ``ves`` can approach), or 105 W in service;
-    defaults :math:`w_d = 1, w_p = 1, w_e = 0.2, w_c = 5, w_v = 5, w_o = 0.5` and
-    ``termination_cost`` :math:`c_{term} = 50`; ``reward = -cost + 5 * [service completed]``.
-    The cost is non-negative (LAC's convention). Flat: the sums over AUVs, ``[*B, 1]``.
+    with :math:`d_j` the distance to the target, :math:`\Delta_j` the progress toward it in the
+    decision, :math:`P_j` the EC model's power at the AUV's mean speed through the water
+    (capped at 3 m/s, inside the model's domain), or 105 W in service, :math:`b_i` the data
+    still waiting in the nodes (the task's goal: serving empties a buffer) and :math:`N_{DO}`
+    the overflow; the two scene terms are shared by the AUVs, so the flat layout's summed cost
+    counts them once. Defaults :math:`w_d = 1, w_p = 1, w_e = 0.2, w_c = 5, w_v = 5, w_b = 2,
+    w_o = 0.5`, so :math:`0 \le c_j \le c_{max} = 13.45` for two AUVs; ``termination_cost``
+    :math:`c_{term} = N c_{max} / (1 - 0.99) = 2690` by default (ending an episode is never
+    cheaper than continuing it, for any discount up to 0.99). ``reward = -cost`` exactly (one
+    learning signal for every framework). ``"cost_terms"`` holds the weighted terms. Flat: the
+    sums over AUVs, ``[*B, 1]``.
 
     **Start state.** Per scene a new seabed, node positions, rates and initial fills
-    (U(0, 1000) packets), a new ocean, the AUVs 20 m apart on a circle around a random point
-    20 m or more inside the area, 5-10 m deep, random heading, cruising at 1.5 m/s and 1200 rpm
-    with the setpoints on the current pose; first targets assigned.
+    (U(0, 1000) packets), a new ocean (as deep as the scene's mean seabed), the AUVs 20 m apart
+    on a circle around a random point 20 m or more inside the area, 5-10 m deep, random heading,
+    cruising at 1.5 m/s and 1200 rpm with the setpoints on the current pose; first targets
+    assigned.
 
     **Episode end.** ``terminated`` when an AUV's state diverges (non-finite or absurd) or it
-    is more than ``exit_margin_m`` (default 50 m, about three minimum turning radii: a
-    REMUS-100 serving a node at the edge loiters on a 17 m circle) outside the area (being
-    outside at all is a violation); ``truncated`` after ``max_steps`` decisions (default
-    1000 = 1000 s).
-    ``done = terminated | truncated``; the flags exist per scene (``[*B, 1]``) and per AUV
-    (``("agents", ...)`` ``[*B, N, 1]``, the scene's flag for every AUV).
+    is more than ``exit_margin_m`` (default 100 m) outside the area (being outside at all is a
+    violation, every decision it lasts); ``truncated`` after ``max_steps`` decisions (default
+    1000 = 1000 s). Per scene (``[*B, 1]``): ``done = terminated | truncated``. Per AUV
+    (``("agents", ...)`` ``[*B, N, 1]``): the AUV that ends the episode is ``terminated``, the
+    others are ``truncated`` (their cost-to-go does not end with a peer's exit: they
+    bootstrap); ``done`` is the scene's.
 
     **Other keys.** ``("truth", "eta" | "nu" | "actuators")`` ``[*B, N, .]`` (the true state,
     for metrics and plots; policies must not read it), ``("kf", "mean" | "cov" | "heading")``,
     ``"setpoint"`` ``[*B, N, 3]``, ``"controller"``, ``"ocean"``, ``"asv"`` ``[*B, 3]``,
-    ``"loiter_turn"`` ``[*B, N]`` (+1/-1 while in service),
-    ``"task"`` (sensor-network state), ``"accumulators"``, ``"tracking"``, ``"step_count"``
-    and ``("metrics", name)`` ``[*B]``: ``sdr`` (Mbit/s summed), ``ssn``, ``ec`` (W, 0 until
-    an AUV has moved), ``ec_with_hover`` (W), ``shaft_power`` (W), ``collisions``,
+    ``"asv_gnss_error"`` ``[*B, 2]``, ``("sensors", "altitude" | "altitude_valid" |
+    "current")``, ``"overridden"`` ``[*B, N]``, ``"cost_terms"``, ``"task"`` (sensor-network
+    state), ``"accumulators"``, ``"tracking"``, ``"localisation"``, ``"step_count"`` and
+    ``("metrics", name)`` ``[*B]``: ``sdr`` (Mbit delivered, the paper's "MBit/s"), ``ssn``,
+    ``services_inside`` (services that ended within the service radius), ``ec`` (W, 0 until an
+    AUV has moved), ``ec_with_hover`` (W), ``shaft_power`` (W), ``collisions``,
     ``violations``, ``overflow`` (packets), ``heading_error_mean``/``_std`` (rad),
-    ``depth_error_mean``/``_std`` (m), running values that are the episode's when ``done``.
+    ``depth_error_mean``/``_std`` (m; over the decisions whose setpoints the policy set),
+    ``kf_position_error`` and ``usbl_position_error`` (m, mean), running values that are the
+    episode's when ``done``.
 
     **Arguments.** ``batch_size``; ``num_auvs``; ``num_sensors``; ``sea_state`` ("ideal",
     "es", "ves" or a ``SeaState``); ``controller`` ("s_surface", "pid", "smc");
     ``rate_model`` ("shannon", "paper"); ``seed``; ``max_steps`` (default
     ``episode_decisions`` = 1000); ``flatten_agents`` (single-agent layout);
-    ``cost_weights``; ``termination_cost``; ``exit_margin_m``; ``compile_physics`` (run the
-    physics step through ``torch.compile``: one compilation per batch shape, then faster;
-    TorchRL's own ``compile=`` env argument compiles the whole step instead); any other
+    ``cost_weights``; ``termination_cost`` (default ``None``: derived as above);
+    ``exit_margin_m``; ``station_keeping``; ``compile_physics`` (run the physics step
+    through ``torch.compile``: one compilation per batch shape, then faster; TorchRL's own
+    ``compile=`` env argument compiles the whole step instead); any other
     :class:`~torchrl_auv.iout.IoUTConfig` field by keyword (e.g. ``area_m=(300.0, 300.0)``).
 
-    **Version history.** v0: first release.
+    **Version history.** v1 (spec v2): termination only on divergence or 100 m out, derived
+    terminal cost, peers truncated; ``reward = -cost`` with the waiting data in the cost;
+    station keeping replaces the loiter; re-service above 10 % fill; edges, altimeter and
+    current estimate in the observation (37 features); real localisation errors; finite-depth
+    waves; fractional SDR; tracking metrics without station keeping. v0: first release.
 
     Examples:
         >>> env = DataCollectionEnv(batch_size=[2], seed=0)
         >>> td = env.rollout(3)
         >>> td["agents", "observation"].shape, td["next", "agents", "cost"].shape
-        (torch.Size([2, 3, 2, 31]), torch.Size([2, 3, 2, 1]))
+        (torch.Size([2, 3, 2, 37]), torch.Size([2, 3, 2, 1]))
         >>> flat = DataCollectionEnv(batch_size=[2], seed=0, flatten_agents=True)
         >>> flat.rollout(3)["observation"].shape
-        torch.Size([2, 3, 62])
+        torch.Size([2, 3, 74])
     """
 
     batch_locked = True
@@ -177,8 +211,9 @@ class DataCollectionEnv(EnvBase):
         max_steps: int | None = None,
         flatten_agents: bool = False,
         cost_weights: iout.CostWeights | None = None,
-        termination_cost: float = 50.0,
-        exit_margin_m: float = 50.0,
+        termination_cost: float | None = None,
+        exit_margin_m: float = 100.0,
+        station_keeping: iout.StationKeepingConfig | None = None,
         compile_physics: bool = False,
         device: torch.device | str | None = None,
         **config_fields: object,
@@ -196,15 +231,20 @@ class DataCollectionEnv(EnvBase):
         self.sea = ocean.get_sea_state(sea_state)
         self.controller = controller_from_name(controller)
         self.max_steps = self.config.episode_decisions if max_steps is None else max_steps
-        if self.max_steps < 1:
-            raise ValueError(f"max_steps must be >= 1, got {max_steps}")
-        if not termination_cost >= 0:
-            raise ValueError(f"termination_cost must be >= 0, got {termination_cost}")
+        if not (isinstance(self.max_steps, int) and self.max_steps >= 1):
+            raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+        if termination_cost is not None and not termination_cost >= 0:
+            raise ValueError(f"termination_cost must be None or >= 0, got {termination_cost}")
         super().__init__(batch_size=torch.Size(batch_size), device=device)
         self.num_auvs = num_auvs
         self.flatten_agents = bool(flatten_agents)
         self.cost_weights = iout.CostWeights() if cost_weights is None else cost_weights
+        if termination_cost is None:
+            termination_cost = self.cost_weights.termination_cost(num_auvs)
         self.termination_cost = float(termination_cost)
+        self.station_keeping = (
+            iout.StationKeepingConfig() if station_keeping is None else station_keeping
+        )
         if not exit_margin_m >= 0:
             raise ValueError(f"exit_margin_m must be >= 0, got {exit_margin_m}")
         self.exit_margin_m = float(exit_margin_m)
@@ -308,23 +348,36 @@ class DataCollectionEnv(EnvBase):
         )
         asv = torch.cat([positions[..., :2].mean(-2), torch.zeros(*shape, 1)], -1)
         accumulators = self.task_metrics.init(shape)
+        sea_td = ocean.reset_ocean(  # finite depth: the scene's mean seabed depth
+            self.sea, shape, generator=g, water_depth=task["terrain", "depth"].mean((-2, -1))
+        )
+        seabed = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
+        sensors = self._sensors(sea_td, seabed - eta[..., 2], (*shape, n))
         state = TensorDict(
             {
                 "truth": td["truth"],
                 "kf": td["kf"],
                 "controller": td["controller"],
                 "setpoint": torch.stack((eta[..., 2], heading, actuators[..., 2]), -1),
-                "ocean": ocean.reset_ocean(self.sea, shape, generator=g),
+                "ocean": sea_td,
                 "asv": asv,
-                "loiter_turn": torch.zeros(*shape, n),
+                "asv_gnss_error": gnss_error_init(
+                    (*shape, 2), self.sea.gnss_sigma, g, dtype=eta.dtype
+                ),
+                "sensors": sensors,
                 "task": task,
+                "overridden": torch.zeros(*shape, n, dtype=torch.bool),
                 "accumulators": accumulators,
                 "tracking": tracking,
+                "localisation": self._localisation_init(shape),
+                "cost_terms": TensorDict(
+                    {k: torch.zeros(*shape, n) for k in iout.COST_TERMS}, batch_size=(*shape, n)
+                ),
                 "step_count": torch.zeros(*shape, 1, dtype=torch.int64),
             },
             batch_size=shape,
         )
-        state["metrics"] = self._metrics(accumulators, tracking)
+        state["metrics"] = self._metrics(accumulators, tracking, state["localisation"])
         self._write_observation(state, state)
         return state
 
@@ -332,18 +385,51 @@ class DataCollectionEnv(EnvBase):
         return self._initial_state(self.batch_size)
 
     # -- helpers -------------------------------------------------------------------------
-    def _metrics(self, accumulators: TensorDictBase, tracking: TensorDictBase) -> TensorDict:
+    @staticmethod
+    def _localisation_init(shape: torch.Size) -> TensorDict:
+        """Running sums of the position errors (m) of the filter and of the raw USBL fixes."""
+        zeros = {k: torch.zeros(shape) for k in ("kf_error_sum", "usbl_error_sum", "kf_samples",
+                                                 "usbl_samples")}  # fmt: skip
+        return TensorDict(zeros, batch_size=shape)
+
+    def _metrics(
+        self, accumulators: TensorDictBase, tracking: TensorDictBase, localisation: TensorDictBase
+    ) -> TensorDict:
         metrics = self.task_metrics.finalize(accumulators)
         for name in ("ec", "ec_with_hover", "shaft_power"):  # 0/0 before the first decision
             metrics[name] = torch.nan_to_num(metrics[name], nan=0.0)
         for name, value in tracking_errors(tracking).items():
             metrics[name] = value.mean(-1)  # mean over the AUVs
+        for name in ("kf", "usbl"):
+            count = localisation[f"{name}_samples"].clamp_min(1.0)
+            metrics[f"{name}_position_error"] = localisation[f"{name}_error_sum"] / count
         return metrics
 
+    def _sensors(
+        self, sea_td: TensorDictBase, true_altitude: torch.Tensor, shape: tuple[int, ...]
+    ) -> TensorDict:
+        """What each AUV measures at the end of a decision: its altimeter (m; out of range:
+        ``valid`` False and the range as the reading) and its estimate of the current (the
+        scene's current, north and east, with ADCP noise, m/s)."""
+        g = self.rng
+        reading, valid = altimeter(true_altitude.nan_to_num(1e6), _ALTIMETER_SIGMA, g,
+                                   max_range=_ALTIMETER_RANGE)  # fmt: skip
+        speed, direction = sea_td["current_speed"], sea_td["current_direction"]
+        flow = torch.stack((speed * torch.cos(direction), speed * torch.sin(direction)), -1)
+        noise = _ADCP_SIGMA * torch.randn((*shape, 2), generator=g, dtype=flow.dtype)
+        return TensorDict(
+            {"altitude": reading, "altitude_valid": valid, "current": flow[..., None, :] + noise},
+            batch_size=shape,
+        )
+
     def _observe(self, state: TensorDictBase) -> torch.Tensor:
-        """Per-AUV observation ``[*B, N, 31]`` from the filter's estimate."""
+        """Per-AUV observation ``[*B, N, 37]`` from the filter's estimate and the sensors."""
         eta_hat, nu_hat = self.vehicles.estimate(state)
-        task_features = iout.task_observation(state["task"], eta_hat[..., :3], self.config)
+        sensors = state["sensors"]
+        task_features = iout.task_observation(
+            state["task"], eta_hat[..., :3], self.config, altitude=sensors["altitude"],
+            current=sensors["current"], horizon=self.max_steps,
+        )  # fmt: skip
         sp = state["setpoint"]
         e_sp = sp[..., 1] - eta_hat[..., 5]
         vehicle = torch.stack(
@@ -368,21 +454,35 @@ class DataCollectionEnv(EnvBase):
             action = tensordict["agents", "action"]
         return action.clamp(-1.0, 1.0)
 
-    def _loiter_turn(
-        self, td: TensorDictBase, hovering: torch.Tensor, heading_hat: torch.Tensor
-    ) -> torch.Tensor:
-        """+1 (starboard) or -1 (port) per AUV: the turn whose circle lies toward the area's
-        centre, chosen when a service starts and kept until it ends; 0 when not in service."""
-        turn = td["loiter_turn"]
-        position = td["kf", "mean"][..., :2]
-        centre = position.new_tensor([self.config.area_m[0] / 2, self.config.area_m[1] / 2])
-        starboard = torch.stack((-torch.sin(heading_hat), torch.cos(heading_hat)), -1)
-        inward = ((centre - position) * starboard).sum(-1)
-        new = torch.where(inward >= 0, 1.0, -1.0).to(turn.dtype)
-        turn = torch.where(turn == 0, new, turn)
-        return torch.where(hovering, turn, torch.zeros_like(turn))
-
     # -- step ----------------------------------------------------------------------------
+    def _setpoints(
+        self, td: TensorDictBase, action: torch.Tensor, hovering: torch.Tensor
+    ) -> torch.Tensor:
+        """``[*B, N, 3]`` controller setpoints for the decision: the action's (card), or the
+        station keeper's for the AUVs in service."""
+        eta_hat, _ = self.vehicles.estimate(td)
+        sensors = td["sensors"]
+        valid = sensors["altitude_valid"]
+        sp = td["setpoint"]
+        # the depth setpoint stays above the seabed the altimeter sees (when it sees it)
+        floor = eta_hat[..., 2] + sensors["altitude"] - self.config.clearance_m
+        depth_sp = (sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp_min(0.0)
+        depth_sp = torch.where(valid, torch.minimum(depth_sp, floor.clamp_min(0.0)), depth_sp)
+        agent = torch.stack(
+            (depth_sp, sp[..., 1] + HEADING_STEP * action[..., 1],
+             RPM_SCALE * (action[..., 2] + 3.0)), -1
+        )  # fmt: skip
+        task = td["task"]
+        node = iout.gather_nodes(task["nodes", "position"], task["auvs", "target"])
+        altitude = torch.where(valid, sensors["altitude"], torch.nan)
+        keeper = torch.stack(
+            iout.station_keeping_setpoints(
+                eta_hat[..., :3], eta_hat[..., 5], node.to(eta_hat.dtype), sensors["current"],
+                altitude, self.station_keeping,
+            ), -1
+        )  # fmt: skip
+        return torch.where(hovering[..., None], keeper, agent)
+
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g, cfg = self.rng, self.config
         td = tensordict.select(*self.state_spec.keys(True, True), strict=True)
@@ -390,25 +490,16 @@ class DataCollectionEnv(EnvBase):
         action = self._agent_action(tensordict)
         task = td["task"]
         hovering = task["auvs", "in_service"]
+        setpoint = self._setpoints(td, action, hovering)
         eta = td["truth", "eta"]
-        heading_hat = td["kf", "heading"]
-        loiter_turn = self._loiter_turn(td, hovering, heading_hat)
         seabed = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
-        sp = td["setpoint"]
-        depth_sp = (sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp(0.0, None)
-        depth_sp = torch.minimum(depth_sp, seabed)
-        heading_sp = sp[..., 1] + HEADING_STEP * action[..., 1]
-        setpoint = torch.stack(
-            (torch.where(hovering, sp[..., 0], depth_sp),
-             torch.where(hovering, heading_hat + _LOITER_LEAD * loiter_turn, heading_sp),
-             torch.where(hovering, _HOVER_RPM, RPM_SCALE * (action[..., 2] + 3.0))), -1
-        )  # fmt: skip
         fleet = TensorDict(
             {k: td[k] for k in ("truth", "kf", "controller")}, batch_size=(*shape, self.num_auvs)
         )
         vehicles, sea_td, decision = self.vehicles.decide(
-            fleet, setpoint, td["ocean"], seabed, generator=g
-        )
+            fleet, setpoint, td["ocean"], seabed.nan_to_num(cfg.seabed_depth_range_m[1]),
+            generator=g,
+        )  # fmt: skip
         eta, nu, act = (vehicles["truth", k] for k in ("eta", "nu", "actuators"))
         position = eta[..., :3]
         steps = decision["steps"]
@@ -418,34 +509,44 @@ class DataCollectionEnv(EnvBase):
         accumulators = self.task_metrics.update(
             td["accumulators"], events, speed, decision["shaft_power_sum"] / steps
         )
-        cost, reward, _ = iout.task_cost(
-            events, speed, task["nodes", "rate"], cfg, self.cost_weights
-        )
+        cost, terms = iout.task_cost(events, speed, task["nodes", "buffer"],
+                                     task["nodes", "rate"], cfg, self.cost_weights)  # fmt: skip
 
-        # the ASV follows the fleet's centroid and gives every AUV a USBL fix
+        # the ASV follows the fleet's centroid and gives every AUV a USBL fix, converted to NED
+        # from where its GNSS says it is
         gap = position[..., :2].mean(-2) - td["asv"][..., :2]
         reach = _ASV_SPEED * cfg.decision_dt_s
         scale = reach / torch.linalg.vector_norm(gap, dim=-1, keepdim=True).clamp_min(reach)
         asv = td["asv"] + torch.cat([gap * scale, torch.zeros(*shape, 1)], -1)
-        fix, fix_cov, valid = usbl_fix(
-            position, asv[..., None, :].expand_as(position), self.sea.usbl_noise_fraction,
-            self.sea.usbl_bearing_sigma, g,
+        gnss = gnss_error_step(td["asv_gnss_error"], self.sea.gnss_sigma,
+                               self.sea.gnss_time_constant, cfg.decision_dt_s, g)  # fmt: skip
+        fix, fix_cov, valid = usbl_fix_from_asv(
+            position, asv[..., None, :].expand_as(position),
+            gnss[..., None, :].expand(*position.shape[:-1], 2), self.sea, g,
         )  # fmt: skip
         mean, cov = self.vehicles.localiser.update_usbl(
             vehicles["kf", "mean"], vehicles["kf", "cov"], fix, fix_cov, valid
         )
         vehicles["kf", "mean"], vehicles["kf", "cov"] = mean, cov
+        localisation = self._localise(td["localisation"], mean, fix, valid, position)
+        seabed_after = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
+        sensors = self._sensors(sea_td, seabed_after - eta[..., 2], (*shape, self.num_auvs))
 
-        tracking = add_tracking_sums(td["tracking"], decision)
+        # tracking errors count only the decisions whose setpoints the policy set
+        own = (~hovering).to(decision["steps"].dtype)
+        policy_decision = decision.apply(lambda value: value * own)
+        tracking = add_tracking_sums(td["tracking"], policy_decision)
+
         x, y, m = eta[..., 0], eta[..., 1], self.exit_margin_m
         outside = (x < -m) | (x > cfg.area_m[0] + m) | (y < -m) | (y > cfg.area_m[1] + m)
         ending = diverged(eta, nu, act) | outside  # [*B, N]
         extra = torch.where(ending, self.termination_cost, 0.0)
         cost = torch.nan_to_num(cost + extra, nan=self.termination_cost)
-        reward = torch.nan_to_num(reward - extra, nan=-self.termination_cost)
         step_count = td["step_count"] + 1
         terminated = ending.any(-1, keepdim=True)
-        truncated = (step_count >= self.max_steps) & ~terminated
+        time_up = step_count >= self.max_steps
+        truncated = time_up & ~terminated
+        done = terminated | truncated
 
         out = TensorDict(
             {
@@ -455,33 +556,66 @@ class DataCollectionEnv(EnvBase):
                 "setpoint": setpoint,
                 "ocean": sea_td,
                 "asv": asv,
-                "loiter_turn": loiter_turn,
+                "asv_gnss_error": gnss,
+                "sensors": sensors,
                 "task": task,
                 "accumulators": accumulators,
                 "tracking": tracking,
+                "localisation": localisation,
+                "cost_terms": terms.apply(lambda value: value.to(torch.float32)),
                 "step_count": step_count,
-                "metrics": self._metrics(accumulators, tracking),
+                "metrics": self._metrics(accumulators, tracking, localisation),
+                "overridden": hovering,
                 "terminated": terminated,
                 "truncated": truncated,
-                "done": terminated | truncated,
+                "done": done,
             },
             batch_size=shape,
         )
         self._write_observation(out, out)
-        cost, reward = cost.to(torch.float32)[..., None], reward.to(torch.float32)[..., None]
+        cost = cost.to(torch.float32)[..., None]
         if self.flatten_agents:
-            out["cost"], out["reward"] = cost.sum(-2), reward.sum(-2)
+            out["cost"] = cost.sum(-2)
+            out["reward"] = -out["cost"]
         else:
-            agents = (*shape, self.num_auvs, 1)
+            # the AUV that ends the episode is terminated; the others are truncated (they
+            # bootstrap: their cost-to-go does not end with their peer's exit)
+            agent_terminated = ending[..., None]
             out["agents"] = TensorDict(
                 {
                     "observation": out["agents", "observation"],
                     "cost": cost,
-                    "reward": reward,
-                    "terminated": terminated[..., None, :].expand(agents).clone(),
-                    "truncated": truncated[..., None, :].expand(agents).clone(),
-                    "done": (terminated | truncated)[..., None, :].expand(agents).clone(),
+                    "reward": -cost,
+                    "terminated": agent_terminated,
+                    "truncated": done[..., None, :].expand_as(agent_terminated) & ~agent_terminated,
+                    "done": done[..., None, :].expand_as(agent_terminated).clone(),
                 },
                 batch_size=(*shape, self.num_auvs),
             )
         return out
+
+    def _localise(
+        self,
+        running: TensorDictBase,
+        estimate: torch.Tensor,
+        fix: torch.Tensor,
+        valid: torch.Tensor,
+        position: torch.Tensor,
+    ) -> TensorDict:
+        """Add this decision's position errors (m) of the filter and of the arrived fixes."""
+        kf_error = torch.linalg.vector_norm(estimate[..., :3] - position, dim=-1)
+        fix_error = torch.linalg.vector_norm(fix - position, dim=-1)
+        fix_error = torch.where(valid, fix_error, torch.zeros_like(fix_error))
+        finite = kf_error.isfinite()
+        dtype = running["kf_error_sum"].dtype
+        return TensorDict(
+            {
+                "kf_error_sum": running["kf_error_sum"]
+                + torch.where(finite, kf_error, 0.0).sum(-1).to(dtype),
+                "kf_samples": running["kf_samples"] + finite.sum(-1).to(dtype),
+                "usbl_error_sum": running["usbl_error_sum"]
+                + torch.where(valid & finite, fix_error, 0.0).sum(-1).to(dtype),
+                "usbl_samples": running["usbl_samples"] + (valid & finite).sum(-1).to(dtype),
+            },
+            batch_size=running.batch_size,
+        )

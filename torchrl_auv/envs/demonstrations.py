@@ -13,11 +13,15 @@ Command line::
     python -m torchrl_auv.envs.demonstrations --env tracking --episodes 8 --out demos/
     python -m torchrl_auv.envs.demonstrations --env data_collection --episodes 4 --out demos_dc/
 
-Keys of a sample: ``observation`` ``[obs]`` (16 tracking, 31 data collection);
+Keys of a sample: ``observation`` ``[obs]`` (16 tracking, 37 data collection);
 ``("history", "observation")`` ``[L, obs]``; ``("history", "action")`` ``[L, 3]``;
 ``("history", "mask")`` ``[L]``; ``action`` ``[3]`` (the expert's action now);
-``action_chunk`` ``[H, 3]``; ``action_chunk_mask`` ``[H]``; ``episode`` (the env batch row),
-``agent`` and ``step`` (int64).
+``action_chunk`` ``[H, 3]``; ``action_chunk_mask`` ``[H]``; ``overridden`` (bool: the env
+replaced this decision's action, an AUV holding station in service: the expert's action there
+was never executed); ``episode`` (the env batch row), ``agent`` and ``step`` (int64). A chunk
+stops (its mask turns false) at the first overridden decision after the sample's own, as at
+an episode's end. :func:`~torchrl_auv.objectives.pretrain_proposer` leaves overridden samples
+out by default.
 """
 
 from __future__ import annotations
@@ -77,6 +81,7 @@ def collect_demonstrations(
     sea_state: str = "ideal",
     controller: str = "s_surface",
     seed: int = 0,
+    **env_options: object,
 ) -> TensorDict:
     """Roll the scripted expert out in ``episodes`` parallel scenes; return a flat batch.
 
@@ -87,6 +92,7 @@ def collect_demonstrations(
         horizon: chunk length ``H``.
         history: history length ``L``.
         sea_state, controller, seed: passed to the env.
+        env_options: further env arguments (e.g. ``rate_model="paper"`` for data collection).
 
     Returns:
         ``episodes * max_steps`` samples (times the number of AUVs), keys in the module docs.
@@ -106,8 +112,9 @@ def collect_demonstrations(
         if value < 1:
             raise ValueError(f"{name} must be >= 1, got {value}")
     base = _make_env(
-        env, episodes, max_steps, sea_state=sea_state, controller=controller, seed=seed
-    )
+        env, episodes, max_steps, sea_state=sea_state, controller=controller, seed=seed,
+        **env_options,
+    )  # fmt: skip
     obs_key = getattr(base, "observation_key", "observation")
     act_key = getattr(base, "agent_action_key", "action")
     tenv = TransformedEnv(
@@ -123,6 +130,10 @@ def collect_demonstrations(
         batch_size=rollout[obs_key].shape[:-1],
     )
     done = rollout["next", "done"].squeeze(-1)  # [E, T]
+    overridden = rollout.get(("next", "overridden"), None)
+    if overridden is None:
+        overridden = torch.zeros(data.batch_size, dtype=torch.bool)
+    data["overridden"] = overridden
     if data.batch_dims == 3:  # [E, T, N]: AUVs become rows of their own
         n = data.batch_size[-1]
         data = data.permute(0, 2, 1).contiguous().reshape(episodes * n, max_steps)
@@ -132,6 +143,10 @@ def collect_demonstrations(
         agent = torch.zeros(episodes, dtype=torch.int64)
     rows = data.batch_size[0]
     chunks, chunk_mask = _chunks(data["action"], done, horizon)
+    # a chunk stops at the first later decision the env overrode (its action never ran)
+    later = _chunks(data["overridden"].unsqueeze(-1).float(), done, horizon)[0][..., 0] > 0
+    later[..., 0] = False
+    chunk_mask = chunk_mask & (later.long().cumsum(-1) == 0)
     data["action_chunk"] = chunks.contiguous()
     data["action_chunk_mask"] = chunk_mask.contiguous()
     episode = torch.arange(episodes).repeat_interleave(rows // episodes)

@@ -15,7 +15,7 @@ from torchrl.envs import EnvBase
 
 from torchrl_auv import iout
 from torchrl_auv.control import wrap_angle
-from torchrl_auv.envs.data_collection import DataCollectionEnv
+from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES, DataCollectionEnv
 from torchrl_auv.envs.tracking import DEPTH_STEP, HEADING_STEP, RPM_SCALE, AUVTrackingEnv
 from torchrl_auv.physics.remus100 import DEFAULT_PARAMS
 
@@ -38,8 +38,8 @@ class ScriptedExpert(TensorDictModuleBase):
       :math:`n = 1525\,u_{ref}/2.55`.
     * Data collection: :func:`torchrl_auv.iout.expert_setpoints` (go to the target at cruise
       rpm, slow down near it, travel ``standoff_m`` above it and the seabed, steer away from
-      the nearest other AUV), turned into setpoint changes. While an AUV is in service the env
-      overrides its action (it loiters).
+      the nearest other AUV, approach from downstream in a current), turned into setpoint
+      changes. While an AUV is in service the env overrides its action (station keeping).
 
     Args:
         env: the env the expert acts in (its layout and task configuration).
@@ -97,30 +97,45 @@ def _tracking_action(obs: torch.Tensor) -> torch.Tensor:
     ).clamp(-1.0, 1.0)
 
 
+_FEATURE = {name: i for i, name in enumerate(AGENT_OBSERVATION_FEATURES)}
+
+
 def _collection_action(
     obs: torch.Tensor, task: iout.IoUTConfig, config: iout.ExpertConfig
 ) -> torch.Tensor:
-    """Actions ``[*B, N, 3]`` from per-AUV observations ``[*B, N, 31]`` (env card layout)."""
+    """Actions ``[*B, N, 3]`` from per-AUV observations (env card layout, read by name)."""
+    f = _FEATURE
+
+    def read(name: str) -> torch.Tensor:
+        return obs[..., f[name]]
+
+    def span(first: str, count: int) -> torch.Tensor:
+        return obs[..., f[first] : f[first] + count]
+
     h_max = task.seabed_depth_range_m[1]
     scale = obs.new_tensor([task.area_m[0], task.area_m[1], h_max])
-    depth = obs[..., 10] * h_max
-    heading = torch.atan2(obs[..., 25], obs[..., 26])
+    depth = read("depth") * h_max
+    heading = torch.atan2(read("sin_heading"), read("cos_heading"))
     own = torch.stack((torch.zeros_like(depth), torch.zeros_like(depth), depth), -1)
     pose = torch.cat([own, torch.zeros_like(own[..., :2]), heading[..., None]], -1)
-    target = own + obs[..., 0:3] * scale
-    alone = obs[..., 14] >= 1.0  # nearest AUV beyond 10 collision distances (or none)
-    nearest = own + obs[..., 11:14] * task.area_diagonal_m
+    target = own + span("target_offset_x", 3) * scale
+    alone = read("nearest_auv_distance") >= 1.0  # beyond 10 collision distances (or none)
+    nearest = own + span("nearest_auv_offset_x", 3) * task.area_diagonal_m
     nearest = torch.where(alone[..., None], own + 1e4, nearest)
     depth_d, heading_d, rpm = iout.expert_setpoints(
         pose,
         target,
         nearest[..., None, :],
         config,
-        has_target=obs[..., 6] > 0.5,
-        seabed_below=(obs[..., 9] + obs[..., 10]) * h_max,
+        has_target=read("has_target") > 0.5,
+        seabed_below=(read("altitude") + read("depth")) * h_max,
+        current=span("current_north", 2),
+        edges=span("edge_x_low", 4) * obs.new_tensor(task.area_m).repeat_interleave(2),
     )
-    depth_sp = depth + 10.0 * obs[..., 27]
-    heading_sp = heading + torch.atan2(obs[..., 28], obs[..., 29])
+    depth_sp = depth + 10.0 * read("depth_setpoint_offset")
+    heading_sp = heading + torch.atan2(
+        read("sin_heading_setpoint_offset"), read("cos_heading_setpoint_offset")
+    )
     return torch.stack(
         ((depth_d - depth_sp) / DEPTH_STEP, wrap_angle(heading_d - heading_sp) / HEADING_STEP,
          rpm / RPM_SCALE - 3.0), -1

@@ -36,8 +36,16 @@ class IoUTConfig:
         priority_rate_weight: weight of ``lambda_i b_i / C_max`` in the target priority.
         priority_distance_weight: weight of the distance ``d_i`` in the priority (1/m).
         retarget_every_decision: re-run the target rule every decision for every AUV that is
-            not in service (the group's heuristic, default); ``False`` keeps a target until it
-            is served (ours, an option).
+            not in service (the group's heuristic); ``False`` (default, ours) keeps a target
+            until it is served. A torpedo-shaped AUV cannot turn on the spot, so how it
+            arrives at a node decides whether it can hold station there in a current (bow
+            into it, :mod:`~torchrl_auv.iout.station_keeping`); re-targeting every decision
+            starts services at whatever node the AUV happens to pass, from any direction
+            (measured with the expert in ``es``: half the services started more than 45 deg
+            off the upstream heading, and only 63 % ended within the service radius).
+        refill_fraction: a node is eligible as a target again once its buffer holds at
+            least this fraction of ``C_max`` (ours, spec v2: 10 %); a node is never a target
+            while it is emptier, so an AUV cannot farm services on a just-emptied node.
         service_radius_m: 3-D AUV-node distance below which service starts (m).
         data_volume_bits: ``Q``, the data of a full buffer (bit); the hover time is
             ``Q (b_i / C_max) / R``.
@@ -82,7 +90,8 @@ class IoUTConfig:
     initial_fill_range: tuple[int, int] = (0, 1000)
     priority_rate_weight: float = 1.0
     priority_distance_weight: float = 0.05
-    retarget_every_decision: bool = True
+    retarget_every_decision: bool = False
+    refill_fraction: float = 0.1
     service_radius_m: float = 18.0
     data_volume_bits: float = 2.0e6
     decision_dt_s: float = 1.0
@@ -151,6 +160,8 @@ class IoUTConfig:
         ):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0 <= self.refill_fraction <= 1:
+            raise ValueError(f"refill_fraction must be in [0, 1], got {self.refill_fraction}")
         if not 0 <= self.shipping <= 1:
             raise ValueError(f"shipping must be in [0, 1], got {self.shipping}")
         if not self.carrier_khz * 1000.0 > self.bandwidth_hz / 2:

@@ -9,13 +9,28 @@ than the repulsion radius :math:`r`:
         + k \sum_{q:\ \lVert p - q\rVert < r} \frac{r - \lVert p - q\rVert}{r}
           \frac{p - q}{\lVert p - q\rVert},\qquad \psi_d = \operatorname{atan2}(u_y, u_x)
 
-(positions horizontal, NED: :math:`\psi` from north toward east). Depth: ``standoff_m`` above
-the target node, and never deeper than ``standoff_m`` above the seabed under the AUV when that
-is given; at least ``min_depth_m``. Propeller: ``cruise_rpm``, slowed to ``approach_rpm``
-within ``approach_radius_m`` (horizontal) of the target so that the vehicle circles the node
-tightly while it descends into the service radius. An AUV without a target keeps its heading
-and depth at ``idle_rpm``. The env turns setpoints into actions
-(depth change ``0.8 a0`` m, heading change ``0.15 a1`` rad, rpm ``380 (a2 + 3)``).
+(positions horizontal, NED: :math:`\psi` from north toward east). A REMUS-100 turns on a
+circle of about 20 m radius, wider than the 18 m service radius, so the expert plans *how* it
+arrives and where it turns:
+
+* In a current (estimate :math:`\hat c` above ``current_threshold_mps``) it arrives from
+  downstream, bow into the flow, the attitude in which it can hold station
+  (:mod:`~torchrl_auv.iout.station_keeping`): it steers for the point ``downstream_offset_m``
+  downstream of the node, going round the node (``avoid_radius_m``, ``keep_out_m``), until it
+  is in the cone of half-angle ``approach_cone_deg`` behind it, and then for the node
+  (:func:`~torchrl_auv.iout.approach.approach_direction`).
+* It steers for a point at least ``edge_clearance_m`` from every edge (up to
+  ``max_inward_shift_m`` from a node near an edge), and within ``edge_radius_m`` of an edge
+  (``edge_radius_current_m`` in a current) it does not head outward unless the point it steers
+  for lies farther out: it runs along the edge instead.
+* A node too close for the vehicle to reach its depth in time (``glide_ratio``, for depth
+  changes above ``glide_min_m``) makes it head for the area's centre while it descends.
+
+Depth: ``standoff_m`` above the target node, and never deeper than ``standoff_m`` above the
+seabed under the AUV when that is given; at least ``min_depth_m``. Propeller: ``cruise_rpm``,
+slowed to ``approach_rpm`` within ``approach_radius_m`` (horizontal) of the target. An AUV
+without a target keeps its heading and depth at ``idle_rpm``. The env turns setpoints into
+actions (depth change ``0.8 a0`` m, heading change ``0.15 a1`` rad, rpm ``380 (a2 + 3)``).
 """
 
 from __future__ import annotations
@@ -23,6 +38,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
+
+from torchrl_auv.iout.approach import approach_direction, unit
 
 __all__ = ["ExpertConfig", "expert_setpoints", "other_positions"]
 
@@ -41,6 +58,29 @@ class ExpertConfig:
         min_depth_m: shallowest depth setpoint (m).
         repulsion_radius_m: other AUVs closer than this push the heading away (m).
         repulsion_gain: :math:`k`, strength of the push relative to the target direction.
+        edge_radius_m: within this distance of an edge the AUV does not head outward unless
+            the point it steers for lies farther out: the outward part of its direction is
+            dropped (m).
+        edge_radius_current_m: the same in a current (smaller: there the approach from
+            downstream, which holding station needs, must not be bent along an edge) (m).
+        edge_gain: ... and replaced by an inward part growing to this (relative to the
+            target direction) at the edge.
+        edge_clearance_m, max_inward_shift_m: the AUV steers for a point at least
+            ``edge_clearance_m`` from every edge, at most ``max_inward_shift_m`` from its node
+            (still well inside the service radius), so it does not hug an edge (m).
+        glide_ratio: horizontal metres the vehicle needs per metre of depth change; closer
+            to its target than this times the depth still to go, the AUV heads for the
+            area's centre while it descends (it would otherwise circle the node, wide) ...
+        glide_min_m: ... when the depth still to go exceeds this (m; smaller changes are
+            made on the way).
+        current_threshold_mps: current speed above which the approach comes from downstream.
+        downstream_offset_m: distance downstream of the node of the approach point (m).
+        approach_cone_deg: half-angle of the cone behind the node from which the AUV heads
+            for the node itself (deg).
+        keep_out_m: going round its node, the AUV bends away from it the more strongly the
+            closer it is within this distance (m).
+        avoid_radius_m: horizontal distance to the node within which a vehicle outside the
+            approach cone goes round the node (m).
 
     Examples:
         >>> ExpertConfig().cruise_rpm
@@ -51,10 +91,22 @@ class ExpertConfig:
     approach_rpm: float = 760.0
     approach_radius_m: float = 20.0
     idle_rpm: float = 760.0
-    standoff_m: float = 5.0
+    standoff_m: float = 8.0
     min_depth_m: float = 2.0
     repulsion_radius_m: float = 20.0
     repulsion_gain: float = 2.0
+    edge_radius_m: float = 60.0
+    edge_radius_current_m: float = 20.0
+    edge_gain: float = 1.0
+    glide_ratio: float = 2.5
+    glide_min_m: float = 10.0
+    edge_clearance_m: float = 12.0
+    max_inward_shift_m: float = 10.0
+    current_threshold_mps: float = 0.25
+    downstream_offset_m: float = 35.0
+    avoid_radius_m: float = 45.0
+    approach_cone_deg: float = 30.0
+    keep_out_m: float = 30.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -65,11 +117,22 @@ class ExpertConfig:
             "standoff_m",
             "min_depth_m",
             "repulsion_gain",
+            "edge_gain",
+            "glide_ratio",
+            "glide_min_m",
+            "edge_clearance_m",
+            "max_inward_shift_m",
+            "current_threshold_mps",
+            "downstream_offset_m",
+            "avoid_radius_m",
+            "approach_cone_deg",
+            "keep_out_m",
         ):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        if not self.repulsion_radius_m > 0:
-            raise ValueError(f"repulsion_radius_m must be > 0, got {self.repulsion_radius_m}")
+        for name in ("repulsion_radius_m", "edge_radius_m", "edge_radius_current_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
 
 
 def other_positions(auv_positions: torch.Tensor) -> torch.Tensor:
@@ -91,6 +154,17 @@ def other_positions(auv_positions: torch.Tensor) -> torch.Tensor:
     return auv_positions[..., others, :]
 
 
+def _arrival_direction(
+    goal_dir: torch.Tensor, current: torch.Tensor | None, cfg: ExpertConfig
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(direction, use)``: upstream where the current estimate exceeds the threshold."""
+    if current is None:
+        return goal_dir, torch.zeros_like(goal_dir[..., :1], dtype=torch.bool)
+    current = current.to(goal_dir.dtype)
+    flowing = torch.linalg.vector_norm(current, dim=-1, keepdim=True) > cfg.current_threshold_mps
+    return torch.where(flowing, -unit(current), goal_dir), flowing
+
+
 def expert_setpoints(
     auv_pose: torch.Tensor,
     target_position: torch.Tensor,
@@ -99,6 +173,8 @@ def expert_setpoints(
     *,
     has_target: torch.Tensor | None = None,
     seabed_below: torch.Tensor | None = None,
+    current: torch.Tensor | None = None,
+    edges: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Desired depth, heading and propeller speed of each AUV (module docstring).
 
@@ -111,6 +187,11 @@ def expert_setpoints(
         has_target: ``[*B, N]`` bool, ``False`` where the AUV has no target (default all
             ``True``).
         seabed_below: ``[*B, N]`` seabed depth under each AUV (m), to keep clear of it.
+        current: ``[*B, N, 2]`` current estimate, north and east (m/s), for the approach
+            from downstream (default: still water).
+        edges: ``[*B, N, 4]`` distances to the area's edges (m) ``x``, ``X - x``, ``y``,
+            ``Y - y``; each edge closer than ``edge_radius_m`` pushes the heading inward with
+            ``edge_gain (r - d) / r`` (default: no area).
 
     Returns:
         ``(depth, heading, rpm)``, each ``[*B, N]`` (m, rad in ``(-pi, pi]``, rpm).
@@ -121,7 +202,7 @@ def expert_setpoints(
         >>> target = torch.tensor([[[100.0, 0.0, 50.0], [100.0, 3.0, 50.0]]])
         >>> depth, heading, rpm = expert_setpoints(pose, target, other_positions(pose[..., :3]))
         >>> depth.tolist(), rpm.tolist()
-        ([[45.0, 45.0]], [[1200.0, 1200.0]])
+        ([[42.0, 42.0]], [[1200.0, 1200.0]])
         >>> bool(heading[0, 0] < 0 < heading[0, 1])  # pushed apart: west and east of north
         True
     """
@@ -133,9 +214,28 @@ def expert_setpoints(
         else has_target
     )
     to_target = target_position[..., :2] - position[..., :2]
+    if edges is not None:  # steer for a point up to 10 m inside a node near an edge
+        node_edges = edges.to(to_target.dtype) + torch.stack(
+            (to_target[..., 0], -to_target[..., 0], to_target[..., 1], -to_target[..., 1]), -1
+        )
+        shift = (cfg.edge_clearance_m - node_edges).clamp(0.0, cfg.max_inward_shift_m)
+        to_target = to_target + (shift[..., 0::2] - shift[..., 1::2])
     heading_dir = torch.stack((torch.cos(psi), torch.sin(psi)), -1)
     norm = torch.linalg.vector_norm(to_target, dim=-1, keepdim=True)
     goal_dir = torch.where(norm > 1e-6, to_target / norm.clamp_min(1e-6), heading_dir)
+    arrival_dir, use = _arrival_direction(goal_dir, current, cfg)
+    inward = None if edges is None else unit(0.5 * (edges[..., 1::2] - edges[..., 0::2]))
+    approach, _ = approach_direction(-to_target, arrival_dir, offset_m=cfg.downstream_offset_m,
+                                     avoid_radius_m=cfg.avoid_radius_m, prefer=inward,
+                                     cone_deg=cfg.approach_cone_deg,
+                                     keep_out_m=cfg.keep_out_m, bow=heading_dir)  # fmt: skip
+    goal_dir = torch.where(use, approach, goal_dir)
+    if edges is not None:  # too steep to reach the node's depth in time: make room inward
+        wanted_depth = target_position[..., 2] - cfg.standoff_m
+        climb = (wanted_depth - position[..., 2]).abs()
+        steep = (norm[..., 0] < cfg.glide_ratio * climb) & (climb > cfg.glide_min_m)
+        centre = 0.5 * (edges[..., 1::2] - edges[..., 0::2]).to(goal_dir.dtype)
+        goal_dir = torch.where(steep[..., None], unit(centre), goal_dir)
     goal_dir = torch.where(valid[..., None], goal_dir, heading_dir)
 
     away = position[..., None, :2] - other_auv_positions[..., :2]  # [*B, N, K, 2]
@@ -143,6 +243,25 @@ def expert_setpoints(
     strength = ((cfg.repulsion_radius_m - gap) / cfg.repulsion_radius_m).clamp_min(0.0)
     push = (cfg.repulsion_gain * strength * away / gap.clamp_min(1e-6)).sum(-2)
     direction = goal_dir + push
+    if edges is not None:  # near an edge, never head out: keep only the along-edge part
+        radius = torch.full_like(direction[..., :1], cfg.edge_radius_m)
+        if current is not None:  # in a current the approach from downstream comes first
+            flowing = torch.linalg.vector_norm(current, dim=-1, keepdim=True)
+            flowing = flowing > cfg.current_threshold_mps
+            radius = torch.where(flowing, cfg.edge_radius_current_m, radius)
+        normals = direction.new_tensor([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+        goal_edges = edges.to(direction.dtype) + torch.stack(
+            (to_target[..., 0], -to_target[..., 0], to_target[..., 1], -to_target[..., 1]), -1
+        )
+        for k in range(4):
+            normal = normals[k]
+            distance = edges[..., k : k + 1].to(direction.dtype)
+            outward = (direction * normal).sum(-1, keepdim=True) < 0
+            # heading out is fine while the point steered for lies farther out still
+            needed = goal_edges[..., k : k + 1] < distance
+            along = direction - (direction * normal).sum(-1, keepdim=True) * normal
+            along = along + cfg.edge_gain * normal * ((radius - distance) / radius).clamp_min(0)
+            direction = torch.where((distance < radius) & outward & ~needed, along, direction)
     heading = torch.atan2(direction[..., 1], direction[..., 0])
 
     depth = target_position[..., 2] - cfg.standoff_m

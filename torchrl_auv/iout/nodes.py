@@ -36,7 +36,7 @@ def sample_nodes(
     Returns:
         TensorDict with batch ``[*B, M]`` and keys ``"position"`` ``[*B, M, 3]`` (NED, m, on
         the seabed), ``"rate"`` (packets/decision), ``"buffer"`` (packets, integer-valued
-        floats) and ``"served"`` (bool, all ``False``).
+        floats) and ``"services"`` (completed services of the node in this episode, int64, all 0).
 
     Examples:
         >>> from torchrl_auv.iout import make_terrain
@@ -63,7 +63,7 @@ def sample_nodes(
             "position": torch.stack((x, y, z), -1),
             "rate": rates[choice],
             "buffer": fill,
-            "served": torch.zeros(shape, dtype=torch.bool, device=device),
+            "services": torch.zeros(shape, dtype=torch.long, device=device),
         },
         batch_size=shape,
         device=device,

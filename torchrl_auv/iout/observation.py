@@ -1,8 +1,9 @@
 r"""Task features of each AUV for the agent's observation (all of order one).
 
-Computed from the positions the agent may see (the Kalman estimate, not the truth) and the
-task state. ``D`` is the area diagonal, ``h_max`` the deepest seabed, ``T_max`` the hover
-time of a full buffer at the edge of the service radius, :math:`Q / R(r_s)`:
+Computed from the positions the agent may see (the Kalman estimate, not the truth), its own
+measurements (altimeter, current estimate) and the task state. ``D`` is the area diagonal,
+``h_max`` the deepest seabed, ``T_max`` the hover time of a full buffer at the edge of the
+service radius, :math:`Q / R(r_s)`; ``(X, Y)`` the area's size:
 
 =====  ==========================  ==========================================================
 idx    name                        value
@@ -14,12 +15,16 @@ idx    name                        value
 6      ``has_target``              1 if the AUV has a target
 7      ``in_service``              1 if hovering in service during the next decision
 8      ``hover_left``              hover time left / T_max
-9      ``altitude``                (seabed depth below - depth) / h_max
+9      ``altitude``                altitude above the seabed / h_max (the altimeter's reading
+                                   when given, else the map's seabed under the position)
 10     ``depth``                   depth / h_max
 11-13  ``nearest_auv_offset``      nearest other AUV minus this one / D; 0 if alone
 14     ``nearest_auv_distance``    min(1, its distance / (10 x collision distance)); 1 if alone
-15     ``served_fraction``         nodes served so far / M
-16     ``time_fraction``           decisions taken / episode_decisions
+15     ``service_count``           services completed so far / M (can exceed 1: nodes refill)
+16     ``time_fraction``           decisions taken / decisions per episode
+17-20  ``edge_*``                  signed distance to the area's edges, x / X, (X - x) / X,
+                                   y / Y, (Y - y) / Y (negative outside the area)
+21-22  ``current_*``               the AUV's estimate of the current, north and east (m/s)
 =====  ==========================  ==========================================================
 """
 
@@ -51,20 +56,38 @@ OBSERVATION_FEATURES = (
     "nearest_auv_offset_y",
     "nearest_auv_offset_z",
     "nearest_auv_distance",
-    "served_fraction",
+    "service_count",
     "time_fraction",
+    "edge_x_low",
+    "edge_x_high",
+    "edge_y_low",
+    "edge_y_high",
+    "current_north",
+    "current_east",
 )
 
 
 def task_observation(
-    state: TensorDict, auv_positions: torch.Tensor, config: IoUTConfig
+    state: TensorDict,
+    auv_positions: torch.Tensor,
+    config: IoUTConfig,
+    *,
+    altitude: torch.Tensor | None = None,
+    current: torch.Tensor | None = None,
+    horizon: int | None = None,
 ) -> torch.Tensor:
-    """Task features per AUV (module docstring), ``[*B, N, 17]``.
+    """Task features per AUV (module docstring), ``[*B, N, 23]``.
 
     Args:
         state: task state from :func:`~torchrl_auv.iout.reset_state` / :func:`~.step`.
         auv_positions: ``[*B, N, 3]`` NED positions the agent sees (m).
         config: task configuration.
+        altitude: ``[*B, N]`` measured altitude above the seabed (m); default: the map's
+            seabed under ``auv_positions``.
+        current: ``[*B, N, 2]`` (or ``[*B, 2]``, shared) current estimate, north and east
+            (m/s); default 0.
+        horizon: decisions per episode for ``time_fraction`` (default
+            ``config.episode_decisions``).
 
     Returns:
         ``[*B, N, len(OBSERVATION_FEATURES)]`` in the dtype of ``auv_positions``.
@@ -75,7 +98,7 @@ def task_observation(
         >>> state, pos = reset_state(cfg, (3,), generator=torch.Generator().manual_seed(0))
         >>> obs = task_observation(state, pos, cfg)
         >>> obs.shape, bool(obs.abs().max() <= 1.0)
-        (torch.Size([3, 2, 17]), True)
+        (torch.Size([3, 2, 23]), True)
     """
     dtype = auv_positions.dtype
     nodes, auvs = state["nodes"], state["auvs"]
@@ -96,7 +119,8 @@ def task_observation(
     edge_rate = link_rate(auv_positions.new_tensor(config.service_radius_m), config)
     hover_max = config.data_volume_bits / edge_rate
     x, y, z = auv_positions.unbind(-1)
-    altitude = seabed_depth(state["terrain"], x, y, config).to(dtype) - z
+    if altitude is None:
+        altitude = seabed_depth(state["terrain"], x, y, config).to(dtype) - z
 
     n = auv_positions.shape[-2]
     gaps = auv_positions[..., None, :, :] - auv_positions[..., :, None, :]  # [*B, N, N, 3]
@@ -110,9 +134,15 @@ def task_observation(
         nearest_offset = torch.zeros_like(nearest_offset)
     closeness = (nearest_distance / (10.0 * config.collision_distance_m)).clamp(max=1.0)
 
-    served = nodes["served"].to(dtype).mean(-1)
-    time = state["decision"].to(dtype) / config.episode_decisions
-    per_scene = torch.stack((served, time), -1)[..., None, :].expand(*has.shape, 2)
+    services = nodes["services"].sum(-1).to(dtype) / nodes["services"].shape[-1]
+    time = state["decision"].to(dtype) / (config.episode_decisions if horizon is None else horizon)
+    per_scene = torch.stack((services, time), -1)[..., None, :].expand(*has.shape, 2)
+    size_x, size_y = config.area_m
+    edges = torch.stack((x / size_x, (size_x - x) / size_x, y / size_y, (size_y - y) / size_y), -1)
+    if current is None:
+        current = torch.zeros((*has.shape, 2), dtype=dtype, device=auv_positions.device)
+    elif current.dim() == has.dim():  # one estimate per scene
+        current = current[..., None, :].expand(*has.shape, 2)
     features = torch.cat(
         [
             masked(offset / scale),
@@ -127,6 +157,8 @@ def task_observation(
             nearest_offset,
             closeness[..., None],
             per_scene,
+            edges.to(dtype),
+            current.to(dtype),
         ],
         -1,
     )

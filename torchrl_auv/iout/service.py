@@ -9,7 +9,7 @@ key                                    shape          meaning
 ``("nodes", "position")``              ``[*B, M, 3]`` node positions, NED (m)
 ``("nodes", "rate")``                  ``[*B, M]``    Poisson rate (packets/decision)
 ``("nodes", "buffer")``                ``[*B, M]``    buffer fill (packets)
-``("nodes", "served")``                ``[*B, M]``    served in this episode (bool)
+``("nodes", "services")``              ``[*B, M]``    services completed in the episode (int64)
 ``("auvs", "target")``                 ``[*B, N]``    target node index, ``-1`` for none (int64)
 ``("auvs", "in_service")``             ``[*B, N]``    hovering in service during the next decision
 ``("auvs", "service_remaining")``      ``[*B, N]``    hover time left (s)
@@ -21,9 +21,11 @@ key                                    shape          meaning
 **One decision** (:func:`step`), given the true AUV positions at its end:
 
 1. Poisson arrivals into every buffer; overflow counted (:func:`~torchrl_auv.iout.data_arrivals`).
-2. AUVs that were in service hovered for the whole decision: their hover time decreases by
+2. AUVs that were in service held station during the decision: their hover time decreases by
    ``decision_dt_s``; at or below 0 the service completes: the node's buffer (including the
-   packets that arrived meanwhile) is emptied and the node is marked served.
+   packets that arrived meanwhile) is emptied and its service count grows by one. The time
+   in service during the decision is ``min(hover time left, decision_dt_s)`` (the last
+   decision of a service counts its fraction).
 3. Every other AUV with a target within ``service_radius_m`` (3-D) starts service: it will
    hover for
 
@@ -33,10 +35,12 @@ key                                    shape          meaning
 
    with :math:`b_i` the buffer now and :math:`R(d)` the link rate at the distance now, both
    frozen for the service (the vehicle holds station, so the distance barely changes). A
-   service thus occupies :math:`\max(1, \lceil T / \Delta t \rceil)` decisions, each reporting
-   the rate :math:`R(d)`. The decision in which the service starts is a moving one.
+   service thus occupies :math:`\max(1, \lceil T / \Delta t \rceil)` decisions at the rate
+   :math:`R(d)`, the last one for its fraction. The decision in which the service starts is
+   a moving one.
 4. Targets are re-chosen (:mod:`~torchrl_auv.iout.targets`) for every AUV not in service
-   (``retarget_every_decision=True``, the group's heuristic), or only for AUVs without one.
+   (``retarget_every_decision=True``, the group's heuristic), or only for AUVs without one,
+   among the nodes filled to at least ``refill_fraction`` of capacity.
 
 The env should hold an AUV on station during the decisions its ``in_service`` flag is set.
 """
@@ -127,7 +131,8 @@ def _retarget(
     node_ids = torch.arange(n_node, device=target.device)
     holders = (~needs & (target >= 0))[..., None]
     held = (holders & (target[..., None] == node_ids)).any(-2)
-    eligible = ~nodes["served"] & ~held
+    refilled = nodes["buffer"] >= config.refill_fraction * config.buffer_capacity
+    eligible = refilled & ~held
     scores = priority(auv_positions, nodes["position"], nodes["rate"], nodes["buffer"], config)
     chosen = assign_targets(scores, eligible, needs)
     return torch.where(needs, chosen, target)
@@ -214,9 +219,13 @@ def step(
 
         * ``"hovering"`` ``[*B, N]`` bool: in service during this decision;
         * ``"rate"`` ``[*B, N]``: link rate while hovering (bit/s), 0 otherwise;
+        * ``"service_time"`` ``[*B, N]``: time in service during the decision (s): the
+          decision's length, the fraction left in the last decision of a service, 0 otherwise;
         * ``"completed"``, ``"started"`` ``[*B, N]`` bool: services that ended / began;
         * ``"progress"`` ``[*B, N]``: decrease of the distance to the target held during the
           decision (m), 0 if hovering or without a target;
+        * ``"held_distance"`` ``[*B, N]``: 3-D distance at the end of the decision to the
+          target held during it (m; 0 without one): where a service ended;
         * ``"target_distance"`` ``[*B, N]``: distance to the (possibly new) target (m), 0 if
           in service or without a target;
         * ``"collision"``, ``"violation"`` ``[*B, N]`` bool (:mod:`~torchrl_auv.iout.safety`);
@@ -245,11 +254,13 @@ def step(
 
     # 2. ongoing services
     hovering = auvs["in_service"]
-    remaining = torch.where(hovering, auvs["service_remaining"] - dt, auvs["service_remaining"])
+    left = auvs["service_remaining"]
+    service_time = torch.where(hovering, left.clamp(0.0, dt), torch.zeros_like(left))
+    remaining = torch.where(hovering, left - dt, left)
     completed = hovering & (remaining <= 0)
     done_nodes = (completed[..., None] & (target[..., None] == node_ids)).any(-2)
     buffer = torch.where(done_nodes, torch.zeros_like(buffer), buffer)
-    served = nodes["served"] | done_nodes
+    services = nodes["services"] + done_nodes.long()
     rate = torch.where(hovering, auvs["service_rate"], torch.zeros_like(auvs["service_rate"]))
 
     # 3. service starts (moving AUVs that reached their target)
@@ -270,7 +281,7 @@ def step(
 
     # 4. targets for the next decision
     new_nodes = TensorDict(
-        {"position": node_pos, "rate": nodes["rate"], "buffer": buffer, "served": served},
+        {"position": node_pos, "rate": nodes["rate"], "buffer": buffer, "services": services},
         batch_size=nodes.batch_size,
         device=nodes.device,
     )
@@ -301,9 +312,11 @@ def step(
         {
             "hovering": hovering,
             "rate": rate,
+            "service_time": service_time,
             "completed": completed,
             "started": started,
             "progress": progress,
+            "held_distance": distance,
             "target_distance": torch.where(
                 in_service, torch.zeros_like(target_distance), target_distance
             ),

@@ -8,10 +8,10 @@ An AUV ``j`` values node ``i`` by the priority (``b_i`` buffer fill, ``C_max`` c
     p_{ij} = w_\lambda\,\lambda_i \frac{b_i}{C_{max}} - w_d\, d_{ij},
     \qquad w_\lambda = 1,\ w_d = 0.05\ \mathrm{m^{-1}}.
 
-**Eligible** ("unserved") nodes are those not yet served in this episode (each node is served
-at most once per episode: a served node keeps filling and can overflow, but is never a target
-again; re-serving would let an AUV sit on a just-emptied node, whose priority is near 0, and
-farm services) and not held by another AUV (in service, or keeping its target).
+**Eligible** nodes are those whose buffer holds at least ``refill_fraction`` of ``C_max``
+(spec v2: a served node becomes a target again once it has refilled above 10 %, so a node can
+be served many times per episode while an AUV cannot farm services on a just-emptied node)
+and that are not held by another AUV (in service, or keeping its target).
 
 **Assignment** is greedy over (AUV, node) pairs so that two AUVs never share a target: take the
 pair of highest priority among the AUVs to assign and the eligible nodes, assign it, remove

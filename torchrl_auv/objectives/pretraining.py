@@ -72,6 +72,7 @@ def pretrain_proposer(
     eval_every: int = 200,
     logger=None,
     seed: int = 0,
+    skip_overridden: bool = True,
 ) -> PretrainResult:
     """Train ``proposer`` on demonstration samples (Adam, the paper's batch 32 and lr 1e-4).
 
@@ -88,6 +89,9 @@ def pretrain_proposer(
         logger: a TorchRL logger (``log_scalar``) or ``None``.
         seed: seeds the split, the timesteps and the noise (the replay buffer's sampler
             draws minibatches from the global RNG, as TorchRL's samplers do).
+        skip_overridden: leave out the samples whose ``overridden`` flag is set (decisions
+            whose action the env replaced, e.g. while holding station in service: the
+            demonstrated action there was never executed). Data without the key is kept whole.
 
     Returns:
         The loss curves and the final held-out loss.
@@ -108,6 +112,10 @@ def pretrain_proposer(
         raise ValueError(f"heldout_fraction must be in [0, 1), got {heldout_fraction}")
     if data.batch_dims != 1 or len(data) < 2:
         raise ValueError(f"data must be a flat batch of >= 2 samples, got {data.batch_size}")
+    if skip_overridden and "overridden" in data.keys():
+        data = data[~data["overridden"]]
+        if len(data) < 2:
+            raise ValueError("data holds fewer than 2 samples that are not overridden")
     g = torch.Generator().manual_seed(seed)
     order = torch.randperm(len(data), generator=g)
     n_heldout = round(heldout_fraction * len(data))

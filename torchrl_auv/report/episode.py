@@ -15,7 +15,7 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
 
     Works for both envs: one AUV (:class:`~torchrl_auv.envs.AUVTrackingEnv`) or a fleet
     (:class:`~torchrl_auv.envs.DataCollectionEnv`, which also draws the sensor nodes, filled
-    once served by the end of the rollout, and the ASV's track).
+    served at least once by the end of the rollout, and the ASV's track).
 
     Args:
         rollout: an env rollout shaped ``[B, T]`` or ``[T]`` (reads ``("next", "truth",
@@ -51,7 +51,7 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
     fig, (ax_top, ax_depth) = plt.subplots(1, 2, figsize=(11, 4.5))
     if "task" in nxt.keys():
         nodes = nxt["task", "nodes"][-1]
-        xy, served = nodes["position"].detach(), nodes["served"]
+        xy, served = nodes["position"].detach(), nodes["services"] > 0
         ax_top.scatter(xy[~served, 1].numpy(), xy[~served, 0].numpy(), s=12, marker="s",
                        facecolors="none", edgecolors="grey", label="node")  # fmt: skip
         ax_top.scatter(xy[served, 1].numpy(), xy[served, 0].numpy(), s=12, marker="s",

@@ -1,0 +1,49 @@
+"""The task's card: ending an episode is never the cheap way out; the report's table."""
+
+from __future__ import annotations
+
+import pytest
+
+from torchrl_auv.envs import DataCollectionEnv
+from torchrl_auv.report.collection import episode_stats, main, make_policy
+
+GAMMAS = (0.97, 0.99)
+
+
+def _exit_is_dearer_than_the_expert(preset: str, scenes: int, expert_steps: int) -> None:
+    """The exit policy (straight out at 1520 rpm) runs until its episodes end; the expert for
+    ``expert_steps`` decisions, plus the most its remaining decisions could cost
+    (gamma^T c_max / (1 - gamma) per AUV), so the comparison is an upper bound on the expert."""
+    env = DataCollectionEnv(batch_size=[scenes], sea_state=preset, seed=0)
+    exit_stats = episode_stats(env, make_policy("exit", env), 400, gammas=GAMMAS)
+    assert exit_stats["terminated"] == 1.0  # every exit run ended by leaving the area
+    env = DataCollectionEnv(batch_size=[scenes], sea_state=preset, seed=0)
+    expert = episode_stats(env, make_policy("expert", env), expert_steps, gammas=GAMMAS)
+    assert expert["terminated"] == 0.0
+    c_max = env.cost_weights.max_cost(env.num_auvs)
+    for gamma in GAMMAS:
+        tail = gamma**expert_steps * c_max / (1 - gamma)
+        expert_bound = expert[f"discounted_cost_{gamma}"] + tail
+        assert exit_stats[f"discounted_cost_{gamma}"] > expert_bound, (preset, gamma)
+
+
+def test_leaving_costs_more_than_the_expert_in_very_extreme_seas():
+    _exit_is_dearer_than_the_expert("ves", scenes=2, expert_steps=300)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("preset", ["ideal", "es", "ves"])
+def test_leaving_costs_more_than_the_expert_in_every_preset(preset):
+    _exit_is_dearer_than_the_expert(preset, scenes=8, expert_steps=1000)
+
+
+def test_the_report_prints_one_row_per_preset_rate_model_and_policy(capsys):
+    rows = main(["--presets", "ideal", "--rate-models", "paper", "--policies", "expert",
+                 "random", "--scenes", "2", "--steps", "20"])  # fmt: skip
+    assert [(r["preset"], r["policy"]) for r in rows] == [("ideal", "expert"), ("ideal", "random")]
+    shares = [k for k in rows[0] if k.startswith("share_")]
+    assert sum(rows[0][k] for k in shares) == pytest.approx(1.0)
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].startswith("| preset |") and len(printed) == 4  # header, rule, 2 rows
+    with pytest.raises(ValueError, match="policy"):
+        make_policy("hover", DataCollectionEnv(batch_size=[1], seed=0))

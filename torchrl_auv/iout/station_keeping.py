@@ -1,0 +1,136 @@
+r"""Station keeping over a sensor node while the AUV is in service (spec v2, "Hovering").
+
+A REMUS-100 cannot hover, and its smallest turning circle (about 19-21 m radius at full rudder,
+at any propeller speed) is wider than the 18 m service radius, so it cannot loiter on a circle
+around the node. It can hold station the way a torpedo-shaped vehicle does in a current: bow
+into the water flow, propeller speed matched to it. The guidance works on horizontal NED
+vectors, from what the vehicle knows (its Kalman position and compass heading, the node's
+position, its current estimate :math:`\hat c` and its altimeter):
+
+.. math::
+
+    v_d = \operatorname{sat}_{v_{max}}\big(k\,(n - p)\big),
+    \qquad w = v_d - \hat c,
+
+with :math:`v_d` the ground velocity wanted (toward the node :math:`n`, proportional to the
+horizontal error, capped; 0 within the dead band, and in still water while the node is more
+than 60 deg off the bow: turning round to reach it would take the vehicle out on a 20 m
+circle, whereas a vehicle that lets the node lie behind it stays close by), and :math:`w` the
+velocity through the water that produces it.
+The heading setpoint is the direction of :math:`w`; the propeller speed makes the surge through
+the water equal to its component along the present heading (:math:`n = 597\,\mathrm{rpm}
+\cdot w\cos e`, the model's steady rpm per m/s, with :math:`e` the heading error), or
+``turn_rpm`` while the heading error exceeds 45 deg (the fins need flow to turn), and 0 when
+:math:`|w|` is below ``min_water_speed_mps`` (no current and on station: the vehicle coasts,
+the neutrally buoyant hull keeps its depth). Depth: ``altitude_m`` above the seabed from the
+altimeter, or above the node where the altimeter has no reading.
+
+In a current the vehicle thus ends up bow into it, making way through the water at the
+current's speed (the propeller must beat 1 m/s in ``ves``). An AUV that starts its service
+heading downstream has to turn round first and drifts meanwhile: approaching a node from
+downstream avoids that (the scripted expert does, :mod:`~torchrl_auv.iout.expert`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+
+__all__ = ["StationKeepingConfig", "station_keeping_setpoints"]
+
+
+@dataclass(frozen=True)
+class StationKeepingConfig:
+    """Parameters of :func:`station_keeping_setpoints` (all ours, tuned in closed loop).
+
+    Attributes:
+        altitude_m: altitude above the seabed to hold (m); the node is on the seabed, so the
+            3-D distance to it is at least this.
+        gain: :math:`k` (1/s), ground speed wanted per metre of horizontal error.
+        max_ground_speed_mps: :math:`v_{max}` (m/s).
+        deadband_m: no ground velocity is wanted within this horizontal distance (m).
+        min_water_speed_mps: below this :math:`|w|` the propeller stops (m/s).
+        turn_rpm: propeller speed while turning toward :math:`w` (rpm; fast: the turning
+            circle is about the same at any speed, so the turn is over sooner and the vehicle
+            drifts less meanwhile).
+        rpm_per_mps: steady propeller speed per m/s of surge (the REMUS-100 model reaches
+            2.554 m/s at 1525 rpm).
+        max_rpm: the highest propeller speed used (rpm).
+
+    Examples:
+        >>> StationKeepingConfig().altitude_m
+        8.0
+    """
+
+    altitude_m: float = 8.0
+    gain: float = 0.1
+    max_ground_speed_mps: float = 1.0
+    deadband_m: float = 12.0
+    min_water_speed_mps: float = 0.25
+    turn_rpm: float = 1520.0
+    rpm_per_mps: float = 1525.0 / 2.5536
+    max_rpm: float = 1520.0
+
+    def __post_init__(self) -> None:
+        for name in ("altitude_m", "gain", "max_ground_speed_mps", "deadband_m",
+                     "min_water_speed_mps", "turn_rpm", "rpm_per_mps", "max_rpm"):  # fmt: skip
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+
+def station_keeping_setpoints(
+    position: torch.Tensor,
+    heading: torch.Tensor,
+    node: torch.Tensor,
+    current: torch.Tensor,
+    altitude: torch.Tensor,
+    config: StationKeepingConfig | None = None,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Depth, heading and propeller setpoints that hold an AUV over its node (module doc).
+
+    Args:
+        position: ``[*B, 3]`` the vehicle's NED position estimate (m).
+        heading: ``[*B]`` its heading estimate (rad).
+        node: ``[*B, 3]`` NED position of the node served (m).
+        current: ``[*B, 2]`` current estimate, north and east (m/s).
+        altitude: ``[*B]`` altimeter reading (m), NaN where it has none.
+        config: guidance parameters (default :class:`StationKeepingConfig`).
+
+    Returns:
+        ``(depth, heading, rpm)`` setpoints, each ``[*B]`` (m, rad, rpm).
+
+    Examples:
+        >>> p, n = torch.tensor([[0.0, 0.0, 37.0]]), torch.tensor([[0.0, 0.0, 45.0]])
+        >>> still, up = torch.zeros(1, 2), torch.tensor([[0.0, -1.0]])  # 1 m/s toward west
+        >>> station_keeping_setpoints(p, torch.zeros(1), n, still, torch.tensor([7.5]))
+        (tensor([36.5000]), tensor([0.]), tensor([0.]))
+        >>> depth, psi, rpm = station_keeping_setpoints(p, torch.tensor([math.pi / 2]), n, up,
+        ...                                             torch.tensor([float("nan")]))
+        >>> depth.item(), round(psi.item(), 4), round(rpm.item())  # bow east, into the flow
+        (37.0, 1.5708, 597)
+    """
+    cfg = StationKeepingConfig() if config is None else config
+    gap = node[..., :2] - position[..., :2]
+    distance = torch.linalg.vector_norm(gap, dim=-1, keepdim=True)
+    wanted = cfg.gain * gap
+    speed = cfg.gain * distance
+    wanted = wanted * (cfg.max_ground_speed_mps / speed.clamp_min(cfg.max_ground_speed_mps))
+    bow = torch.stack((torch.cos(heading), torch.sin(heading)), -1).to(gap.dtype)
+    ahead = (gap * bow).sum(-1, keepdim=True) >= 0.5 * distance  # within 60 deg of the bow
+    still = torch.linalg.vector_norm(current, dim=-1, keepdim=True) < cfg.min_water_speed_mps
+    idle = (distance < cfg.deadband_m) | (still & ~ahead)
+    wanted = torch.where(idle, torch.zeros_like(wanted), wanted)
+    water = wanted - current.to(wanted.dtype)
+    water_speed = torch.linalg.vector_norm(water, dim=-1)
+    moving = water_speed > cfg.min_water_speed_mps
+    heading_sp = torch.where(moving, torch.atan2(water[..., 1], water[..., 0]), heading)
+    error = torch.atan2(torch.sin(heading_sp - heading), torch.cos(heading_sp - heading)).abs()
+    along = water_speed * torch.cos(error).clamp_min(0.0)
+    rpm = (cfg.rpm_per_mps * along).clamp(0.0, cfg.max_rpm)
+    rpm = torch.where(error > math.pi / 4, torch.full_like(rpm, cfg.turn_rpm), rpm)
+    rpm = torch.where(moving, rpm, torch.zeros_like(rpm))
+    ground_level = torch.where(altitude.isnan(), node[..., 2], position[..., 2] + altitude)
+    depth = (ground_level - cfg.altitude_m).clamp_min(0.0)
+    return depth, heading_sp, rpm
