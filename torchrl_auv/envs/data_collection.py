@@ -605,7 +605,6 @@ class DataCollectionEnv(EnvBase):
         """Add this decision's position errors (m) of the filter and of the arrived fixes."""
         kf_error = torch.linalg.vector_norm(estimate[..., :3] - position, dim=-1)
         fix_error = torch.linalg.vector_norm(fix - position, dim=-1)
-        fix_error = torch.where(valid, fix_error, torch.zeros_like(fix_error))
         finite = kf_error.isfinite()
         dtype = running["kf_error_sum"].dtype
         return TensorDict(

@@ -285,10 +285,11 @@ class VehicleStack:
         zero = torch.zeros(shape, dtype=dtype, device=device)
         # distinct tensors (aliased inputs would recompile the compiled steps on the next call)
         sums = {k: torch.zeros_like(zero) for k in DECISION_STATS[1:]}
-        # the filter's and the vehicle's constant tensors are cached on first use: fill the
-        # caches before a compiled call (filling them while tracing would recompile on the next)
-        self.localiser._matrices(self.dt, dtype, device)
-        remus100.DEFAULT_PARAMS.tensors(dtype, device)
+        if self.compile:
+            # the filter's and the vehicle's constant tensors are cached on first use: fill
+            # the caches before a compiled call (filling them while tracing would recompile)
+            self.localiser._matrices(self.dt, dtype, device)
+            remus100.DEFAULT_PARAMS.tensors(dtype, device)
         run = self._compiled_steps() if self.compile else self._steps
         unroll = self.unroll if self.compile else steps
         for k in range(0, steps, unroll):

@@ -154,6 +154,13 @@ def other_positions(auv_positions: torch.Tensor) -> torch.Tensor:
     return auv_positions[..., others, :]
 
 
+def _edges_of(edges: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
+    """Distances to the edges (``[*B, N, 4]``, as ``edges``) of the point ``offset``
+    (``[*B, N, 2]``, m) away from the AUV whose distances are ``edges``."""
+    x, y = offset[..., 0], offset[..., 1]
+    return edges.to(offset.dtype) + torch.stack((x, -x, y, -y), -1)
+
+
 def _arrival_direction(
     goal_dir: torch.Tensor, current: torch.Tensor | None, cfg: ExpertConfig
 ) -> tuple[torch.Tensor, torch.Tensor]:
@@ -190,8 +197,8 @@ def expert_setpoints(
         current: ``[*B, N, 2]`` current estimate, north and east (m/s), for the approach
             from downstream (default: still water).
         edges: ``[*B, N, 4]`` distances to the area's edges (m) ``x``, ``X - x``, ``y``,
-            ``Y - y``; each edge closer than ``edge_radius_m`` pushes the heading inward with
-            ``edge_gain (r - d) / r`` (default: no area).
+            ``Y - y``, for the inward shift of the point steered for, the glide rule and the
+            edge band (module docstring; default: no area).
 
     Returns:
         ``(depth, heading, rpm)``, each ``[*B, N]`` (m, rad in ``(-pi, pi]``, rpm).
@@ -215,27 +222,25 @@ def expert_setpoints(
     )
     to_target = target_position[..., :2] - position[..., :2]
     if edges is not None:  # steer for a point up to 10 m inside a node near an edge
-        node_edges = edges.to(to_target.dtype) + torch.stack(
-            (to_target[..., 0], -to_target[..., 0], to_target[..., 1], -to_target[..., 1]), -1
-        )
-        shift = (cfg.edge_clearance_m - node_edges).clamp(0.0, cfg.max_inward_shift_m)
+        shift = cfg.edge_clearance_m - _edges_of(edges, to_target)
+        shift = shift.clamp(0.0, cfg.max_inward_shift_m)
         to_target = to_target + (shift[..., 0::2] - shift[..., 1::2])
     heading_dir = torch.stack((torch.cos(psi), torch.sin(psi)), -1)
     norm = torch.linalg.vector_norm(to_target, dim=-1, keepdim=True)
     goal_dir = torch.where(norm > 1e-6, to_target / norm.clamp_min(1e-6), heading_dir)
-    arrival_dir, use = _arrival_direction(goal_dir, current, cfg)
+    arrival_dir, flowing = _arrival_direction(goal_dir, current, cfg)
+    # the direction to the area's centre, from the distances to its edges
     inward = None if edges is None else unit(0.5 * (edges[..., 1::2] - edges[..., 0::2]))
     approach, _ = approach_direction(-to_target, arrival_dir, offset_m=cfg.downstream_offset_m,
                                      avoid_radius_m=cfg.avoid_radius_m, prefer=inward,
                                      cone_deg=cfg.approach_cone_deg,
                                      keep_out_m=cfg.keep_out_m, bow=heading_dir)  # fmt: skip
-    goal_dir = torch.where(use, approach, goal_dir)
+    goal_dir = torch.where(flowing, approach, goal_dir)
     if edges is not None:  # too steep to reach the node's depth in time: make room inward
         wanted_depth = target_position[..., 2] - cfg.standoff_m
         climb = (wanted_depth - position[..., 2]).abs()
         steep = (norm[..., 0] < cfg.glide_ratio * climb) & (climb > cfg.glide_min_m)
-        centre = 0.5 * (edges[..., 1::2] - edges[..., 0::2]).to(goal_dir.dtype)
-        goal_dir = torch.where(steep[..., None], unit(centre), goal_dir)
+        goal_dir = torch.where(steep[..., None], inward.to(goal_dir.dtype), goal_dir)
     goal_dir = torch.where(valid[..., None], goal_dir, heading_dir)
 
     away = position[..., None, :2] - other_auv_positions[..., :2]  # [*B, N, K, 2]
@@ -244,15 +249,11 @@ def expert_setpoints(
     push = (cfg.repulsion_gain * strength * away / gap.clamp_min(1e-6)).sum(-2)
     direction = goal_dir + push
     if edges is not None:  # near an edge, never head out: keep only the along-edge part
-        radius = torch.full_like(direction[..., :1], cfg.edge_radius_m)
-        if current is not None:  # in a current the approach from downstream comes first
-            flowing = torch.linalg.vector_norm(current, dim=-1, keepdim=True)
-            flowing = flowing > cfg.current_threshold_mps
-            radius = torch.where(flowing, cfg.edge_radius_current_m, radius)
+        # in a current the approach from downstream comes first: a narrower band
+        radius = torch.where(flowing, cfg.edge_radius_current_m, cfg.edge_radius_m)
+        radius = radius.to(direction.dtype)
         normals = direction.new_tensor([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
-        goal_edges = edges.to(direction.dtype) + torch.stack(
-            (to_target[..., 0], -to_target[..., 0], to_target[..., 1], -to_target[..., 1]), -1
-        )
+        goal_edges = _edges_of(edges, to_target)
         for k in range(4):
             normal = normals[k]
             distance = edges[..., k : k + 1].to(direction.dtype)

@@ -547,15 +547,22 @@ def wavenumber(
     return torch.where(finite, (x / depth).to(omega.dtype), deep)
 
 
-def _check_water_depth(water_depth, batch_shape, dtype, device) -> torch.Tensor:
-    """``water_depth`` as a ``[*B]`` tensor; ValueError unless every value is > 0 (inf ok)."""
+def _water_depth_tensor(water_depth, **kwargs) -> torch.Tensor:
+    """``water_depth`` as a tensor; ValueError unless it is a number or tensor whose every
+    value is > 0 (``inf`` allowed)."""
     if isinstance(water_depth, bool) or not isinstance(water_depth, (int, float, torch.Tensor)):
         raise ValueError(
             f"water_depth must be None, a number or a tensor (m), got {type(water_depth).__name__}"
         )
-    depth = torch.as_tensor(water_depth, dtype=dtype, device=device)
+    depth = torch.as_tensor(water_depth, **kwargs)
     if not bool((depth > 0).all()):  # also rejects NaN
         raise ValueError(f"water_depth must be > 0 (m), got {water_depth!r}")
+    return depth
+
+
+def _check_water_depth(water_depth, batch_shape, dtype, device) -> torch.Tensor:
+    """``water_depth`` as a ``[*B]`` tensor; ValueError unless every value is > 0 (inf ok)."""
+    depth = _water_depth_tensor(water_depth, dtype=dtype, device=device)
     try:
         return depth.expand(batch_shape).clone()
     except RuntimeError as err:
@@ -683,13 +690,7 @@ def _check_position(
         )
     if water_depth is None:
         return
-    if isinstance(water_depth, bool) or not isinstance(water_depth, (int, float, torch.Tensor)):
-        raise ValueError(
-            f"water_depth must be None, a number or a tensor (m), got {type(water_depth).__name__}"
-        )
-    depth = torch.as_tensor(water_depth)
-    if not bool((depth > 0).all()):  # also rejects NaN
-        raise ValueError(f"water_depth must be > 0 (m), got {water_depth!r}")
+    depth = _water_depth_tensor(water_depth)
     try:
         torch.broadcast_shapes(depth.shape, state.batch_size)
     except RuntimeError as err:
