@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import pytest
 import torch
 
 from torchrl_auv.iout import (
@@ -27,7 +28,8 @@ def test_heads_straight_for_the_target_when_alone():
     target = 200 * torch.rand(5, 3, 3, generator=g, dtype=torch.float64)
     target[..., 2] = 50.0
     far = torch.full((5, 3, 2, 3), 1e4, dtype=torch.float64)  # others out of the repulsion radius
-    depth, heading, rpm = expert_setpoints(pose, target, far)
+    spot = ExpertConfig(turn_radius_m=0.0)  # a vehicle that turns on the spot orbits nothing
+    depth, heading, rpm = expert_setpoints(pose, target, far, spot)
     assert depth.shape == heading.shape == rpm.shape == (5, 3)
     for b in range(5):
         for j in range(3):
@@ -84,6 +86,7 @@ def kinematic_episode(cfg: IoUTConfig, batch: int, decisions: int, seed: int, sp
             pose,
             gather_nodes(state["nodes", "position"], target),
             other_positions(pos),
+            ExpertConfig(turn_radius_m=0.0),  # the toy turns on the spot
             has_target=has,
             seabed_below=bed,
         )
@@ -144,3 +147,52 @@ def test_task_observation_features():
     state["auvs", "target"] = torch.full_like(target, -1)
     blind = task_observation(state, pos, cfg)
     assert (blind[..., :7] == 0).all()
+
+
+def _alone(x: float, y: float, psi: float, target: tuple[float, float], **kwargs):
+    """Heading setpoint of one AUV at ``(x, y)`` (40 m deep), bow ``psi``, in a 200 m square,
+    target node at 48 m depth, no other AUV near."""
+    pose = torch.tensor([[[x, y, 40.0, 0.0, 0.0, psi]]], dtype=torch.float64)
+    node = torch.tensor([[[target[0], target[1], 48.0]]], dtype=torch.float64)
+    far = torch.full((1, 1, 1, 3), 1e4, dtype=torch.float64)
+    edges = torch.tensor([[[x, 200.0 - x, y, 200.0 - y]]], dtype=torch.float64)
+    return expert_setpoints(pose, node, far, ExpertConfig(**kwargs), edges=edges)[1].item()
+
+
+def test_a_target_inside_the_turning_circle_is_left_to_fall_behind():
+    # bow north; a node 15 m abeam (east): |d|^2 = 225 < 2 R |lateral| = 2 * 22 * 15 -> run on
+    assert _alone(100.0, 100.0, 0.0, (100.0, 115.0)) == 0.0
+    # 60 m abeam: 3600 > 2 * 22 * 60 -> turn toward it
+    assert _alone(100.0, 100.0, 0.0, (100.0, 160.0)) == pytest.approx(math.pi / 2)
+    # a vehicle that turns on the spot heads for the near one too
+    assert _alone(100.0, 100.0, 0.0, (100.0, 115.0), turn_radius_m=0.0) == pytest.approx(
+        math.pi / 2
+    )
+
+
+def test_a_big_turn_near_an_edge_goes_the_way_that_does_not_face_it():
+    # 5 m from the south edge (x = 0, outward normal pi), bow 190 deg, target 100 m away at
+    # 40 deg: the short way (150 deg anticlockwise) sweeps 180 deg, the long way sweeps 270 and
+    # 0 deg, whose edges are 100 and 195 m off: the setpoint is 90 deg the long way round
+    psi, bearing = math.radians(190.0), math.radians(40.0)
+    x, y = 5.0, 100.0
+    target = (x + 100 * math.cos(bearing), y + 100 * math.sin(bearing))
+    want = math.atan2(math.sin(psi + math.pi / 2), math.cos(psi + math.pi / 2))
+    assert _alone(x, y, psi, target) == pytest.approx(want)
+    # the same turn far from that edge (x = 95): the short way
+    x = 95.0
+    target = (x + 100 * math.cos(bearing), y + 100 * math.sin(bearing))
+    assert _alone(x, y, psi, target) == pytest.approx(bearing)
+
+
+def test_in_still_water_a_node_near_an_edge_is_approached_along_it():
+    # node 10 m from the north edge, AUV 90 m south and 40 m west of it, bow north. The point
+    # steered for is shifted to 12 m from the edge: (188, 100), 88 m north and 40 m east. Its
+    # way heads out across the north edge (outward part 0.91 > 0.2): the arrival is along the
+    # edge, east, from edge_offset_m = 25 m back: aim at (188, 75), i.e. (88, 15) from the AUV
+    # (outside the 30 deg cone behind the node, beyond the 45 m avoid radius)
+    heading = _alone(100.0, 60.0, 0.0, (190.0, 100.0))
+    assert heading == pytest.approx(math.atan2(15.0, 88.0))
+    # with the rule off the AUV heads straight for the shifted point
+    off = _alone(100.0, 60.0, 0.0, (190.0, 100.0), edge_arrival_m=0.0)
+    assert off == pytest.approx(math.atan2(40.0, 88.0))

@@ -49,11 +49,38 @@ def test_off_station_the_ground_velocity_wanted_points_at_the_node_capped():
     _, heading, rpm = _keep([-30.0, 0.0, 37.0], 0.0, [0.0, 0.0, 45.0], [0.0, 0.0], 8.0)
     assert heading == pytest.approx(0.0, abs=1e-12) and rpm == pytest.approx(RPM_PER_MPS)
     # 20 m: v_d = 2 m/s capped at 1; in a 1 m/s current toward the west, w = (1, 0) - (0, -1)
+    # = (1, 1) is 45 deg off upstream (east): the crab limit (40 deg) keeps the upstream part 1
+    # and cuts the cross-flow part to tan(40 deg) -> w = (tan 40, 1)
+    cross = math.tan(math.radians(CFG.max_crab_deg))
+    want = math.atan2(1.0, cross)  # 50 deg east of north
     _, heading, rpm = _keep([-20.0, 0.0, 37.0], math.pi / 4, [0.0, 0.0, 45.0], [0.0, -1.0], 8.0)
-    assert heading == pytest.approx(math.pi / 4) and rpm == pytest.approx(RPM_PER_MPS * 2**0.5)
-    # the same but the bow 50 deg off the water velocity wanted: turning at turn_rpm
-    _, _, rpm = _keep([-20.0, 0.0, 37.0], math.pi / 4 + 0.87, [0.0, 0.0, 45.0], [0.0, -1.0], 8.0)
+    surge = math.hypot(1.0, cross) * math.cos(want - math.pi / 4)  # along the bow (45 deg)
+    assert heading == pytest.approx(want) and rpm == pytest.approx(RPM_PER_MPS * surge)
+    # a wider crab limit lets w = (1, 1) through unchanged
+    wide = iout.StationKeepingConfig(max_crab_deg=60.0)
+    t = lambda v: torch.tensor([v], dtype=torch.float64)  # noqa: E731
+    _, heading, rpm = iout.station_keeping_setpoints(
+        t([-20.0, 0.0, 37.0]), t(math.pi / 4), t([0.0, 0.0, 45.0]), t([0.0, -1.0]), t(8.0), wide
+    )
+    assert heading.item() == pytest.approx(math.pi / 4)
+    assert rpm.item() == pytest.approx(RPM_PER_MPS * 2**0.5)
+    # the bow 50 deg off the water velocity wanted: turning at turn_rpm
+    _, _, rpm = _keep([-20.0, 0.0, 37.0], want + 0.87, [0.0, 0.0, 45.0], [0.0, -1.0], 8.0)
     assert rpm == CFG.turn_rpm
+
+
+def test_in_a_current_a_node_downstream_is_reached_by_slowing_not_by_turning_round():
+    # 0.6 m/s toward the north, bow south (upstream), node 20 m north (downstream): v_d = 1 m/s
+    # north, w = v_d - c = 0.4 m/s north would need a U-turn; its upstream part is clamped to
+    # min_water_speed_mps (0.25) -> |w| = 0.25 is not above it: the propeller stops, the bow
+    # stays upstream and the current carries the vehicle back
+    _, heading, rpm = _keep([-20.0, 0.0, 37.0], math.pi, [0.0, 0.0, 45.0], [0.6, 0.0], 8.0)
+    assert rpm == 0.0 and heading == pytest.approx(math.pi)
+    # the node 30 m west in a 1 m/s northward flow: w = (0, -1) - (1, 0) = (-1, -1), 45 deg
+    # off upstream (south); the limit turns it to (-1, -tan 40): 40 deg west of south
+    _, heading, rpm = _keep([0.0, 30.0, 37.0], math.pi, [0.0, 0.0, 45.0], [1.0, 0.0], 8.0)
+    cross = math.tan(math.radians(CFG.max_crab_deg))
+    assert heading == pytest.approx(math.atan2(-cross, -1.0)) and rpm > 0
 
 
 def test_in_still_water_a_node_behind_the_bow_is_left_behind():

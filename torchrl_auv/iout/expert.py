@@ -23,6 +23,12 @@ arrives and where it turns:
   ``max_inward_shift_m`` from a node near an edge), and within ``edge_radius_m`` of an edge
   (``edge_radius_current_m`` in a current) it does not head outward unless the point it steers
   for lies farther out: it runs along the edge instead.
+* In still water, a point steered for within ``edge_arrival_m`` of an edge is approached
+  along the edge, from ``edge_offset_m`` back (a vehicle that arrives heading out coasts on
+  toward the edge and needs a turning diameter to come back in); a target inside the turning
+  circle (``turn_radius_m``) on its side is left to fall behind while the AUV runs straight
+  on (turning toward it, the vehicle would orbit it); and a turn of more than 90 deg near
+  edges goes the way whose bow sweeps the outward normal of the nearer edge least.
 * A node too close for the vehicle to reach its depth in time (``glide_ratio``, for depth
   changes above ``glide_min_m``) makes it head for the area's centre while it descends.
 
@@ -35,6 +41,7 @@ actions (depth change ``0.8 a0`` m, heading change ``0.15 a1`` rad, rpm ``380 (a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import torch
@@ -81,6 +88,12 @@ class ExpertConfig:
             closer it is within this distance (m).
         avoid_radius_m: horizontal distance to the node within which a vehicle outside the
             approach cone goes round the node (m).
+        turn_radius_m: the vehicle's turning circle with a margin (m): in still water a target
+            inside the circle on its side is not turned toward (the AUV would orbit it) but
+            left to fall behind while the AUV runs straight on.
+        edge_arrival_m: in still water, a point steered for nearer an edge than this is
+            approached along the edge rather than heading out across it (m) ...
+        edge_offset_m: ... from this far back (m).
 
     Examples:
         >>> ExpertConfig().cruise_rpm
@@ -107,6 +120,9 @@ class ExpertConfig:
     avoid_radius_m: float = 45.0
     approach_cone_deg: float = 30.0
     keep_out_m: float = 30.0
+    turn_radius_m: float = 22.0
+    edge_arrival_m: float = 20.0
+    edge_offset_m: float = 25.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -127,6 +143,9 @@ class ExpertConfig:
             "avoid_radius_m",
             "approach_cone_deg",
             "keep_out_m",
+            "turn_radius_m",
+            "edge_arrival_m",
+            "edge_offset_m",
         ):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
@@ -170,6 +189,51 @@ def _arrival_direction(
     current = current.to(goal_dir.dtype)
     flowing = torch.linalg.vector_norm(current, dim=-1, keepdim=True) > cfg.current_threshold_mps
     return torch.where(flowing, -unit(current), goal_dir), flowing
+
+
+def _turn_clear_of_edges(
+    heading: torch.Tensor, psi: torch.Tensor, edges: torch.Tensor, radius: torch.Tensor
+) -> torch.Tensor:
+    """``heading`` (rad), or a setpoint 90 deg the other way round from ``psi``: a turn of
+    more than 90 deg goes the way whose bow sweeps the outward normals of the edges nearer
+    than ``radius`` (``[*B, N, 1]``, m) least closely (a U-turn carries the vehicle a turning
+    diameter sideways: better toward a far edge than a near one)."""
+    turn = torch.atan2(torch.sin(heading - psi), torch.cos(heading - psi))
+    outward = psi.new_tensor([math.pi, 0.0, -0.5 * math.pi, 0.5 * math.pi])  # x, X-x, y, Y-y
+    rel = outward - psi[..., None]
+    rel = torch.atan2(torch.sin(rel), torch.cos(rel))
+    swept = (rel * turn[..., None] >= 0) & (rel.abs() <= turn.abs()[..., None])
+    closeness = (radius - edges.to(psi.dtype)).clamp_min(0.0)  # 0 beyond the radius
+    short = torch.where(swept, closeness, 0.0).amax(-1)
+    long = torch.where(swept, 0.0, closeness).amax(-1)
+    long_way = (turn.abs() > 0.5 * math.pi) & (long < short)
+    other_way = psi - torch.sign(turn) * 0.5 * math.pi
+    other_way = torch.atan2(torch.sin(other_way), torch.cos(other_way))
+    return torch.where(long_way, other_way, heading)
+
+
+def _edge_arrival(
+    goal_dir: torch.Tensor,
+    to_target: torch.Tensor,
+    edges: torch.Tensor,
+    inward: torch.Tensor,
+    bow: torch.Tensor,
+    cfg: ExpertConfig,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(direction, use)``: where the point steered for lies within ``edge_arrival_m`` of an
+    edge and the way to it heads out across that edge, the approach that arrives along the
+    edge instead (the outward part of the arrival dropped; toward the centre in a corner)."""
+    out = goal_dir.new_tensor([[-1.0, 0.0], [1.0, 0.0], [0.0, -1.0], [0.0, 1.0]])
+    outward = (goal_dir[..., None, :] * out).sum(-1).clamp_min(0.0)  # [*B, N, 4]
+    outward = torch.where(_edges_of(edges, to_target) < cfg.edge_arrival_m, outward, 0.0)
+    tangential = goal_dir - (outward[..., None] * out).sum(-2)
+    length = torch.linalg.vector_norm(tangential, dim=-1, keepdim=True)
+    arrival = torch.where(length > 0.1, unit(tangential), inward.to(goal_dir.dtype))
+    direction, _ = approach_direction(-to_target, arrival, offset_m=cfg.edge_offset_m,
+                                      avoid_radius_m=cfg.avoid_radius_m, prefer=inward,
+                                      cone_deg=cfg.approach_cone_deg, keep_out_m=cfg.keep_out_m,
+                                      bow=bow)  # fmt: skip
+    return direction, outward.amax(-1, keepdim=True) > 0.2
 
 
 def expert_setpoints(
@@ -236,6 +300,17 @@ def expert_setpoints(
                                      cone_deg=cfg.approach_cone_deg,
                                      keep_out_m=cfg.keep_out_m, bow=heading_dir)  # fmt: skip
     goal_dir = torch.where(flowing, approach, goal_dir)
+    along_edge = torch.zeros_like(flowing)
+    if edges is not None:  # still water, steered point near an edge: arrive along the edge
+        edge_approach, along_edge = _edge_arrival(goal_dir, to_target, edges, inward,
+                                                  heading_dir, cfg)  # fmt: skip
+        along_edge = along_edge & ~flowing
+        goal_dir = torch.where(along_edge, edge_approach, goal_dir)
+    # still water: a target inside the turning circle on its side is orbited, not reached;
+    # run straight on until it is outside (|d|^2 < 2 R |lateral| is inside)
+    lateral = (to_target * torch.stack((-heading_dir[..., 1], heading_dir[..., 0]), -1)).sum(-1)
+    orbit = norm[..., 0].square() < 2.0 * cfg.turn_radius_m * lateral.abs()
+    goal_dir = torch.where(orbit[..., None] & ~flowing & ~along_edge, heading_dir, goal_dir)
     if edges is not None:  # too steep to reach the node's depth in time: make room inward
         wanted_depth = target_position[..., 2] - cfg.standoff_m
         climb = (wanted_depth - position[..., 2]).abs()
@@ -264,6 +339,8 @@ def expert_setpoints(
             along = along + cfg.edge_gain * normal * ((radius - distance) / radius).clamp_min(0)
             direction = torch.where((distance < radius) & outward & ~needed, along, direction)
     heading = torch.atan2(direction[..., 1], direction[..., 0])
+    if edges is not None:
+        heading = _turn_clear_of_edges(heading, psi, edges, radius)
 
     depth = target_position[..., 2] - cfg.standoff_m
     if seabed_below is not None:

@@ -16,7 +16,11 @@ with :math:`v_d` the ground velocity wanted (toward the node :math:`n`, proporti
 horizontal error, capped; 0 within the dead band, and in still water while the node is more
 than 60 deg off the bow: turning round to reach it would take the vehicle out on a 20 m
 circle, whereas a vehicle that lets the node lie behind it stays close by), and :math:`w` the
-velocity through the water that produces it.
+velocity through the water that produces it. In a current (:math:`|\hat c|` at least
+``min_water_speed_mps``) :math:`w` keeps an upstream part of at least ``min_water_speed_mps``
+and a cross-flow part of at most :math:`\tan` ``max_crab_deg`` times that: the bow stays
+within ``max_crab_deg`` of upstream, and the vehicle moves downstream by going slower than the
+current instead of turning round on a 20 m circle (which it would overshoot and repeat).
 The heading setpoint is the direction of :math:`w`; the propeller speed makes the surge through
 the water equal to its component along the present heading (:math:`n = 597\,\mathrm{rpm}
 \cdot w\cos e`, the model's steady rpm per m/s, with :math:`e` the heading error), or
@@ -58,6 +62,7 @@ class StationKeepingConfig:
         rpm_per_mps: steady propeller speed per m/s of surge (the REMUS-100 model reaches
             2.554 m/s at 1525 rpm).
         max_rpm: the highest propeller speed used (rpm).
+        max_crab_deg: in a current, the largest angle between the bow and upstream (deg).
 
     Examples:
         >>> StationKeepingConfig().altitude_m
@@ -72,12 +77,30 @@ class StationKeepingConfig:
     turn_rpm: float = 1520.0
     rpm_per_mps: float = 1525.0 / 2.5536
     max_rpm: float = 1520.0
+    max_crab_deg: float = 40.0
 
     def __post_init__(self) -> None:
         for name in ("altitude_m", "gain", "max_ground_speed_mps", "deadband_m",
-                     "min_water_speed_mps", "turn_rpm", "rpm_per_mps", "max_rpm"):  # fmt: skip
+                     "min_water_speed_mps", "turn_rpm", "rpm_per_mps", "max_rpm",
+                     "max_crab_deg"):  # fmt: skip
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+
+def _bow_upstream(
+    water: torch.Tensor, current: torch.Tensor, cfg: StationKeepingConfig
+) -> torch.Tensor:
+    """``water`` (``[*B, 2]``, m/s) with its upstream part at least ``min_water_speed_mps`` and
+    its cross-flow part at most ``tan(max_crab_deg)`` times that: the bow stays within
+    ``max_crab_deg`` of upstream, and ground speed downstream comes from going slower than
+    the current rather than from turning round on a 20 m circle."""
+    up = -current / torch.linalg.vector_norm(current, dim=-1, keepdim=True).clamp_min(1e-6)
+    along = (water * up).sum(-1, keepdim=True)
+    upstream = along.clamp_min(cfg.min_water_speed_mps)
+    cross = water - along * up
+    cap = upstream * math.tan(math.radians(cfg.max_crab_deg))
+    cross_speed = torch.linalg.vector_norm(cross, dim=-1, keepdim=True).clamp_min(1e-6)
+    return upstream * up + cross * (cap / cross_speed).clamp_max(1.0)
 
 
 def station_keeping_setpoints(
@@ -123,6 +146,7 @@ def station_keeping_setpoints(
     idle = (distance < cfg.deadband_m) | (still & ~ahead)
     wanted = torch.where(idle, torch.zeros_like(wanted), wanted)
     water = wanted - current.to(wanted.dtype)
+    water = torch.where(still, water, _bow_upstream(water, current.to(water.dtype), cfg))
     water_speed = torch.linalg.vector_norm(water, dim=-1)
     moving = water_speed > cfg.min_water_speed_mps
     heading_sp = torch.where(moving, torch.atan2(water[..., 1], water[..., 0]), heading)
