@@ -25,7 +25,18 @@ ALLOWED_IMPORTS: dict[str, set[str]] = {
     "modules": set(),
     "objectives": {"modules"},
     "advisor": {"objectives"},
+    "training": {
+        "physics",
+        "estimation",
+        "control",
+        "iout",
+        "envs",
+        "modules",
+        "objectives",
+        "advisor",
+    },
     "report": {
+        "training",
         "physics",
         "estimation",
         "control",

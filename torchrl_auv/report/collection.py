@@ -14,98 +14,19 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import torch
-from tensordict import TensorDictBase
 
-from torchrl_auv import iout
-from torchrl_auv.envs import DataCollectionEnv, ScriptedExpert
+from torchrl_auv.envs import DataCollectionEnv
+from torchrl_auv.training.evaluation import (
+    POLICIES,
+    episode_stats,
+    exit_policy,
+    make_policy,
+)
 
 __all__ = ["POLICIES", "episode_stats", "exit_policy", "main", "make_policy"]
-
-POLICIES = ("expert", "random", "exit")
-
-
-def exit_policy(env: DataCollectionEnv) -> Callable[[TensorDictBase], TensorDictBase]:
-    """Straight out at full speed: hold depth and heading, 1520 rpm (the cheapest way to end an
-    episode early, which the termination cost must make expensive)."""
-
-    def act(td: TensorDictBase) -> TensorDictBase:
-        shape = (*td.batch_size, env.num_auvs, 3)
-        action = torch.zeros(shape)
-        action[..., 2] = 1.0
-        td.set(env.agent_action_key, action.flatten(-2) if env.flatten_agents else action)
-        return td
-
-    return act
-
-
-def make_policy(name: str, env: DataCollectionEnv):
-    """``expert`` (:class:`~torchrl_auv.envs.ScriptedExpert`), ``random`` (uniform actions;
-    ``None`` for ``env.rollout``) or ``exit`` (:func:`exit_policy`)."""
-    if name not in POLICIES:
-        raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
-    return {"expert": lambda: ScriptedExpert(env), "random": lambda: None,
-            "exit": lambda: exit_policy(env)}[name]()  # fmt: skip
-
-
-def _first_episode(rollout: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
-    """Per scene: the index of the first ``done`` step (the last step if none) and the mask
-    ``[B, T]`` of the steps of that first episode."""
-    done = rollout["next", "done"][..., 0]
-    steps = torch.arange(done.shape[-1])
-    first = torch.where(done, steps, done.shape[-1] - 1).amin(-1)
-    return first, steps[None, :] <= first[:, None]
-
-
-def episode_stats(
-    env: DataCollectionEnv,
-    policy,
-    steps: int,
-    *,
-    gammas: Sequence[float] = (0.97, 0.99),
-) -> dict[str, float]:
-    """Roll ``policy`` out for ``steps`` decisions (one episode per scene, or its first
-    ``steps`` decisions) and summarise it (module docstring). Values are means over scenes;
-    ``kf_error_p95`` is the 95th percentile over every AUV-decision."""
-    rollout = env.rollout(steps, policy, break_when_any_done=False)
-    first, mask = _first_episode(rollout)
-    scenes = torch.arange(rollout.batch_size[0])
-    at_end = rollout["next"][scenes, first]
-    metrics = at_end["metrics"]
-    n = env.num_auvs
-    decisions = (first + 1).double()
-    truth = rollout["next", "truth", "eta"][..., :3]
-    kf_error = torch.linalg.vector_norm(rollout["next", "kf", "mean"][..., :3] - truth, dim=-1)
-    kf_error = kf_error[mask[..., None].expand_as(kf_error) & kf_error.isfinite()]
-    cost = rollout["next", "agents", "cost"][..., 0].double()  # [B, T, N]
-    cost = torch.where(mask[..., None], cost, 0.0)
-    terms = rollout["next", "cost_terms"]
-    term_totals = {k: torch.where(mask[..., None], terms[k].double(), 0.0).sum() for k in
-                   iout.COST_TERMS}  # fmt: skip
-    total = sum(term_totals.values())
-    out = {
-        "sdr_mbit": metrics["sdr"].double().mean().item(),
-        "ssn": metrics["ssn"].double().mean().item(),
-        "ec_w": metrics["ec"].double().mean().item(),
-        "violation_rate": (metrics["violations"].double() / (n * decisions)).mean().item(),
-        "collisions": metrics["collisions"].double().mean().item(),
-        "terminated": at_end["terminated"][:, 0].double().mean().item(),
-        "decisions": decisions.mean().item(),
-        "service_end_inside": (
-            metrics["services_inside"].sum() / metrics["ssn"].sum().clamp_min(1)
-        ).item(),
-        "kf_error_mean": kf_error.double().mean().item(),
-        "kf_error_p95": kf_error.double().quantile(0.95).item(),
-        "usbl_error_mean": metrics["usbl_position_error"].double().mean().item(),
-        "cost_mean": (cost.sum((-2, -1)) / (n * decisions)).mean().item(),
-        **{f"share_{k}": (v / total).item() for k, v in term_totals.items()},
-    }
-    for gamma in gammas:
-        discount = gamma ** torch.arange(cost.shape[1], dtype=torch.float64)
-        out[f"discounted_cost_{gamma}"] = (cost * discount[:, None]).sum(1).mean().item()
-    return out
 
 
 def main(argv: Sequence[str] | None = None) -> list[dict]:

@@ -1,0 +1,51 @@
+"""A run's written results: ``eval.csv`` (one row per sea state and policy) and ``summary.md``.
+
+Examples:
+    >>> import tempfile, pathlib
+    >>> rows = [{"sea_state": "ideal", "policy": "expert", "sdr_mbit": 26.4, "ssn": 15.1}]
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     _ = write_eval(rows, d)
+    ...     print(pathlib.Path(d, "eval.csv").read_text().splitlines()[1])
+    ideal,expert,26.4,15.1
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+__all__ = ["SUMMARY_COLUMNS", "write_eval", "write_summary"]
+
+#: The evaluation columns summary.md shows (eval.csv has every one).
+SUMMARY_COLUMNS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "terminated",
+                   "cost_mean", "heading_error_mean", "depth_error_mean")  # fmt: skip
+
+
+def write_eval(rows: Sequence[Mapping], run_dir: str | Path) -> Path:
+    """Write ``run_dir/eval.csv`` (columns: the first row's keys)."""
+    path = Path(run_dir) / "eval.csv"
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def _fmt(value) -> str:
+    return f"{value:.3g}" if isinstance(value, float) else str(value)
+
+
+def write_summary(
+    run_dir: str | Path, *, title: str, rows: Sequence[Mapping], facts: Mapping[str, object]
+) -> Path:
+    """Write ``run_dir/summary.md``: the run's facts (frames, rates, wall time, ...) and the
+    evaluation table (:data:`SUMMARY_COLUMNS`). Returns its path."""
+    lines = [f"# {title}", ""]
+    lines += [f"- {key}: {_fmt(value)}" for key, value in facts.items()]
+    cols = ["sea_state", "policy", *SUMMARY_COLUMNS]
+    lines += ["", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(_fmt(row.get(c, "")) for c in cols) + " |" for row in rows]
+    path = Path(run_dir) / "summary.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
