@@ -279,12 +279,16 @@ def test_1000_decision_ves_episodes_with_random_actions(seed):
         ({"max_steps": 0}, "max_steps"),
         ({"termination_cost": -1.0}, "termination_cost"),
         ({"exit_margin_m": -1.0}, "exit_margin_m"),
-        ({"areas": (1.0, 1.0)}, "areas"),
     ],
 )
 def test_bad_input_names_the_argument(kwargs, argument):
     with pytest.raises(ValueError, match=argument):
         DataCollectionEnv(batch_size=[1], **kwargs)
+
+
+def test_unknown_argument_is_pythons_type_error_naming_it():
+    with pytest.raises(TypeError, match="unexpected keyword argument 'areas'"):
+        DataCollectionEnv(batch_size=[1], areas=(1.0, 1.0))
 
 
 @pytest.mark.slow

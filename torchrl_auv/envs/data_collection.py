@@ -178,7 +178,9 @@ class DataCollectionEnv(EnvBase):
     ``exit_margin_m``; ``station_keeping``; ``compile_physics`` (run the physics step
     through ``torch.compile``: one compilation per batch shape, then faster; TorchRL's own
     ``compile=`` env argument compiles the whole step instead); any other
-    :class:`~torchrl_auv.iout.IoUTConfig` field by keyword (e.g. ``area_m=(300.0, 300.0)``).
+    :class:`~torchrl_auv.iout.IoUTConfig` field by keyword (e.g. ``area_m=(300.0, 300.0)``);
+    any other keyword raises Python's usual ``TypeError: ... got an unexpected keyword
+    argument '<name>'`` (which TorchRL's ``GymEnv`` relies on to drop ``frameskip``).
 
     **Version history.** v1 (spec v2): termination only on divergence or 100 m out, derived
     terminal cost, peers truncated; ``reward = -cost`` with the waiting data in the cost;
@@ -219,11 +221,13 @@ class DataCollectionEnv(EnvBase):
         **config_fields: object,
     ) -> None:
         known = {f.name for f in dataclasses.fields(iout.IoUTConfig)}
-        unknown = sorted(set(config_fields) - known)
+        unknown = [name for name in config_fields if name not in known]
         if unknown:
-            raise ValueError(
-                f"unknown argument(s) {unknown}: expected DataCollectionEnv's own arguments or "
-                "IoUTConfig fields"
+            # Python's own wording (the first unknown name, in call order): callers such as
+            # TorchRL's GymEnv drop an optional keyword (``frameskip``) only on this TypeError.
+            raise TypeError(
+                f"DataCollectionEnv.__init__() got an unexpected keyword argument "
+                f"'{unknown[0]}' (expected DataCollectionEnv's own arguments or IoUTConfig fields)"
             )
         self.config = iout.IoUTConfig(
             num_auvs=num_auvs, num_sensors=num_sensors, rate_model=rate_model, **config_fields

@@ -7,7 +7,10 @@ single, unbatched episode on numpy arrays with float32 ``Box(-inf, inf)`` observ
 ``Box(-1, 1)`` actions: 16 and 3 for tracking; for data collection the flat single-agent
 layout (``flatten_agents=True``), ``37 N`` and ``3 N``, with the reward summed over the AUVs.
 ``info`` carries the ``cost`` and, at the end of an episode, the episode metrics. For batched
-or multi-agent training use the TorchRL envs directly.
+or multi-agent training use the TorchRL envs directly. Unknown keyword arguments (and
+``batch_size``) raise Python's usual ``TypeError: ... got an unexpected keyword argument
+'<name>'``, so TorchRL's ``GymEnv("torchrl_auv.envs:<id>")``, which tries ``frameskip`` first
+and drops it on exactly that error, builds these ids.
 """
 
 from __future__ import annotations
@@ -67,6 +70,19 @@ class _GymView(gymnasium.Env):
         )
 
 
+def _reject_batch_size(cls: type, kwargs: dict[str, Any]) -> None:
+    """The gymnasium view is unbatched: ``batch_size`` is not one of its keyword arguments.
+
+    Raised as Python's usual ``TypeError`` (not "got multiple values"), like every other
+    unknown keyword, which the wrapped env's own ``__init__`` rejects the same way.
+    """
+    if "batch_size" in kwargs:
+        raise TypeError(
+            f"{cls.__name__}.__init__() got an unexpected keyword argument 'batch_size' "
+            "(the gymnasium view is a single, unbatched env)"
+        )
+
+
 class TrackingGymEnv(_GymView):
     """:class:`~torchrl_auv.envs.AUVTrackingEnv` behind the gymnasium API (one episode).
 
@@ -78,6 +94,7 @@ class TrackingGymEnv(_GymView):
     """
 
     def __init__(self, **kwargs: Any) -> None:
+        _reject_batch_size(TrackingGymEnv, kwargs)
         super().__init__(AUVTrackingEnv(batch_size=[], **kwargs))
 
 
@@ -94,6 +111,7 @@ class DataCollectionGymEnv(_GymView):
     def __init__(self, **kwargs: Any) -> None:
         if "flatten_agents" in kwargs:
             raise ValueError("flatten_agents is always True in the gymnasium view; do not pass it")
+        _reject_batch_size(DataCollectionGymEnv, kwargs)
         super().__init__(DataCollectionEnv(batch_size=[], flatten_agents=True, **kwargs))
 
 

@@ -36,7 +36,10 @@ class CandidateSelector(TensorDictModuleBase):
 
     Args:
         critic: a module reading the observation and ``critic_action_key`` and writing
-            ``critic_out_key`` (TorchRL's ``ValueOperator``: ``state_action_value``).
+            ``critic_out_key`` (TorchRL's ``ValueOperator``: ``state_action_value``, but
+            ``state_value`` when its action key is nested, e.g. ``("agents", "action")``). A
+            critic that does not write ``critic_out_key`` raises a ``KeyError`` naming the key
+            and the keys the critic wrote.
         mode: ``"q"`` (argmax Q) or ``"lyapunov"`` (argmin L, the raw output through ``spec``).
         spec: the Lyapunov form (mode ``"lyapunov"``; default softplus).
         exploration: ``None``, ``"softmax"`` (sample from softmax(scores / temperature)) or
@@ -114,10 +117,29 @@ class CandidateSelector(TensorDictModuleBase):
             batch_size=actions.shape[:-1],
         )
         with torch.no_grad():
-            raw = self.critic(td).get(self.critic_out_key)
+            out = self.critic(td)
+        raw = out.get(self.critic_out_key, None)
+        if raw is None:
+            raise self._missing_critic_output(out)
         if self.mode == "q":
             return raw[..., 0]
         return -lyapunov_value(raw, self.spec, obs if self.spec.prior else None)[..., 0]
+
+    def _missing_critic_output(self, out: TensorDictBase) -> KeyError:
+        """The error for a critic that did not write ``critic_out_key``: names what it wrote."""
+        inputs = {self.observation_key, self.critic_action_key}
+        written = sorted(
+            (k for k in out.keys(include_nested=True, leaves_only=True) if k not in inputs), key=str
+        )
+        declared = getattr(self.critic, "out_keys", None)
+        return KeyError(
+            f"CandidateSelector: the critic did not write critic_out_key "
+            f"{self.critic_out_key!r}; the keys it wrote are {written}"
+            + (f" (its out_keys: {list(declared)})" if declared is not None else "")
+            + ". Pass the critic's output key as critic_out_key=... (TorchRL's ValueOperator "
+            "names its output 'state_value', not 'state_action_value', when its action key is "
+            "nested, e.g. ('agents', 'action'))"
+        )
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         candidates = tensordict.get(self.candidates_key, None)
