@@ -1,6 +1,7 @@
 # torchrl-auv developer commands. Every target sets up .venv/ first (idempotent: re-installs only
 # when requirements/lock.txt or pyproject.toml changed).
-#   make demo   set up, then run the main job (writes under runs/)
+#   make demo   set up, then train the full framework on quick (recipes/diffusion_lac, runs/)
+#   make table3 set up, then run the Table III tracking experiment (recipes/main.py, runs/)
 #   make test   set up, then run the test suite (the command CI runs)
 #   make bench  set up, then run every benchmark in benchmarks/
 #   make lint   ruff check + format check
@@ -15,7 +16,7 @@ export OMP_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export WANDB_MODE ?= offline
 
-.PHONY: setup demo test test-all bench lint clean
+.PHONY: setup demo table3 test test-all bench lint clean
 
 setup: $(STAMP)
 
@@ -29,6 +30,9 @@ $(STAMP): requirements/lock.txt pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
+	$(PY) recipes/diffusion_lac/train.py --config-name=quick
+
+table3: $(STAMP)
 	$(PY) -m recipes.main
 
 test: $(STAMP)

@@ -48,7 +48,7 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
     with open(run_dir / "eval.csv") as handle:
         rows = list(csv.DictReader(handle))
     assert [(r["sea_state"], r["policy"]) for r in rows] == [
-        ("ves", "sac"), ("ves", "expert"), ("ves", "random")
+        ("ideal", "sac"), ("ideal", "expert"), ("ideal", "random")
     ]  # fmt: skip
     for row in rows:  # 20 decisions per scene: the metrics are finite numbers
         assert float(row["decisions"]) == 20.0 and float(row["cost_mean"]) >= 0.0
@@ -60,7 +60,7 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
     (record_file,) = (run_dir / "wandb").glob("offline-run-*/run-*.wandb")
     records = record_file.read_bytes()
     for name in (b"sea_state", b"updates_per_batch", b"train/cost_mean", b"time/frames_per_s",
-                 b"eval/ves/sac/ssn", b"eval/ves/expert/ssn"):  # fmt: skip
+                 b"eval/ideal/sac/ssn", b"eval/ideal/expert/ssn"):  # fmt: skip
         assert name in records, name
 
 

@@ -88,6 +88,15 @@ class AdvisorTrigger:
         self.records: list[dict[str, Any]] = []
         self._last_frame: int | None = None
 
+    def state_dict(self) -> dict[str, Any]:
+        """What a resumed run needs: the frame of the last consultation (``-1``: none yet).
+        The spec in force lives in the loss; checkpoint it with the loss's owner."""
+        return {"last_frame": -1 if self._last_frame is None else int(self._last_frame)}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        last = int(state["last_frame"])
+        self._last_frame = None if last < 0 else last
+
     def reason(self, frame: int, feedback: TrainingFeedback | None) -> str | None:
         """Why to consult now (``"start"``, a threshold), or ``None``."""
         if self._last_frame is None:

@@ -7,6 +7,7 @@ their tables and figures. Recipes call these; they hold no library logic of thei
 
 from __future__ import annotations
 
+from torchrl_auv.report.curves import plot_learning_curve, read_curve
 from torchrl_auv.report.episode import plot_episode
 from torchrl_auv.report.proposals import (
     plot_candidate_stages,
@@ -19,8 +20,10 @@ __all__ = [
     "KalmanObserver",
     "plot_candidate_stages",
     "plot_episode",
+    "plot_learning_curve",
     "plot_pretraining_loss",
     "plot_tracking",
+    "read_curve",
     "setpoint_paths",
     "tracking_table",
 ]

@@ -6,7 +6,12 @@ factory to build your own pipeline.
 
 from __future__ import annotations
 
-from torchrl_auv.training.checkpointing import ProgressState, make_checkpoint, resume_latest
+from torchrl_auv.training.checkpointing import (
+    ProgressState,
+    SpecState,
+    make_checkpoint,
+    resume_latest,
+)
 from torchrl_auv.training.config import COLLECTOR_BACKENDS, check_choices
 from torchrl_auv.training.evaluation import (
     POLICIES,
@@ -28,6 +33,20 @@ from torchrl_auv.training.factories import (
     make_sac_loss,
     select_for_replay,
 )
+from torchrl_auv.training.run import (
+    RunTracker,
+    batch_metrics,
+    buffer_from_config,
+    env_from_config,
+    finish_run,
+    gradient_step,
+    log_metrics,
+    logger_from_config,
+    prepare_resume,
+    progress_postfix,
+    sac_optimisers,
+    start_run,
+)
 from torchrl_auv.training.summary import write_eval, write_summary
 
 __all__ = [
@@ -35,11 +54,20 @@ __all__ = [
     "POLICIES",
     "REPLAY_KEYS",
     "ProgressState",
+    "RunTracker",
+    "SpecState",
+    "batch_metrics",
+    "buffer_from_config",
     "bytes_per_frame",
     "check_choices",
+    "env_from_config",
     "episode_stats",
     "evaluate",
     "exit_policy",
+    "finish_run",
+    "gradient_step",
+    "log_metrics",
+    "logger_from_config",
     "make_actor",
     "make_checkpoint",
     "make_collector",
@@ -49,9 +77,13 @@ __all__ = [
     "make_q_critic",
     "make_replay_buffer",
     "make_sac_loss",
+    "prepare_resume",
+    "progress_postfix",
     "reference_policies",
     "resume_latest",
+    "sac_optimisers",
     "select_for_replay",
+    "start_run",
     "write_eval",
     "write_summary",
 ]

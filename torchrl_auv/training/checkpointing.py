@@ -15,19 +15,20 @@ Examples:
     ...     progress["frames"] = 128
     ...     _ = rotation.save(ckpt, step=128)
     ...     progress["frames"] = 0
-    ...     resume_latest(run_dir, ckpt, progress)
+    ...     resume_latest(run_dir, ckpt, progress)[0]
     128
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 
 import torch
 from torchrl.checkpoint import Checkpoint, CheckpointRotation, GlobalRNGState
 
-__all__ = ["ProgressState", "make_checkpoint", "resume_latest"]
+__all__ = ["ProgressState", "SpecState", "make_checkpoint", "resume_latest"]
 
 
 class ProgressState:
@@ -62,11 +63,32 @@ def make_checkpoint(
     return checkpoint, CheckpointRotation(Path(run_dir) / "checkpoints", keep_last=keep_last)
 
 
-def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress: dict) -> int:
+def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress: dict) -> tuple[int, dict]:
     """Load the newest checkpoint under ``run_dir/checkpoints`` into ``checkpoint``'s live
-    components; returns the frames it had reached (0 and nothing loaded when there is none)."""
+    components. Returns the frames it had reached and its plain (JSON) values, e.g. the
+    stored ``config`` (``(0, {})`` and nothing loaded when there is none)."""
     latest = CheckpointRotation(Path(run_dir) / "checkpoints", keep_last=1).latest()
     if latest is None:
-        return 0
-    checkpoint.load(latest)
-    return int(progress.get("frames", 0))
+        return 0, {}
+    result = checkpoint.load(latest)
+    return int(progress.get("frames", 0)), dict(result.values)
+
+
+class SpecState:
+    """The Lyapunov spec in force (``loss.spec``, which an advisor may have changed) as a
+    checkpoint component: ``load_state_dict`` applies it with ``loss.set_lyapunov_spec``."""
+
+    def __init__(self, loss) -> None:
+        self.loss = loss
+
+    def state_dict(self) -> dict:
+        spec = self.loss.spec
+        return {"form": spec.form, "prior": spec.prior or "", "alpha": float(spec.alpha),
+                "prior_weight": float(spec.prior_weight)}  # fmt: skip
+
+    def load_state_dict(self, state: Mapping) -> None:
+        spec = dataclasses.replace(
+            self.loss.spec, form=state["form"], prior=state["prior"] or None,
+            alpha=state["alpha"], prior_weight=state["prior_weight"],
+        )  # fmt: skip
+        self.loss.set_lyapunov_spec(spec)

@@ -151,4 +151,5 @@ def evaluate(
 
 def reference_policies() -> dict[str, Callable[[DataCollectionEnv], object]]:
     """The reference rows of every evaluation: the scripted expert and random actions."""
-    return {"expert": lambda env: ScriptedExpert(env), "random": lambda env: None}
+    return {"expert": lambda env: ScriptedExpert(getattr(env, "base_env", env)),
+            "random": lambda env: None}  # fmt: skip

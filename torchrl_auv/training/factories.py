@@ -181,8 +181,11 @@ def make_collector(
     if frames_per_batch < scenes or frames_per_batch % scenes:
         raise ValueError(f"collector.frames_per_batch must be a positive multiple of the "
                          f"{scenes} scenes, got {frames_per_batch}")  # fmt: skip
+    # our policies hold no recurrent state: nothing to append to the env (torchrl 0.14.1
+    # otherwise warns that an InitTracker is missing, for any policy)
     return Collector(env, policy, frames_per_batch=frames_per_batch, total_frames=total_frames,
-                     init_random_frames=init_random_frames, device=device)  # fmt: skip
+                     init_random_frames=init_random_frames, device=device,
+                     auto_register_policy_transforms=False)  # fmt: skip
 
 
 def select_for_replay(data: TensorDictBase) -> TensorDictBase:

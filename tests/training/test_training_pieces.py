@@ -1,0 +1,122 @@
+"""torchrl_auv.training: config checks, replay selection, checkpoint state, selection wiring."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from tensordict import TensorDict
+
+from torchrl_auv import training
+from torchrl_auv.advisor import AdvisorTrigger, RuleBasedAdvisor
+from torchrl_auv.objectives import LyapunovSpec
+from torchrl_auv.training import diffusion
+
+
+@pytest.mark.parametrize(
+    ("cfg", "named"),
+    [({"env": {"sea_state": "calm"}}, "env.sea_state"),
+     ({"env": {"controller": "lqr"}}, "env.controller"),
+     ({"env": {"rate_model": "fast"}}, "env.rate_model"),
+     ({"collector": {"backend": "ray"}}, "collector.backend"),
+     ({"collector": {"total_frames": 0}}, "collector.total_frames"),
+     ({"collector": {"num_workers": 2}}, "collector.num_workers"),
+     ({"replay_buffer": {"storage": "disk"}}, "replay_buffer.storage"),
+     ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states")],
+)  # fmt: skip
+def test_check_choices_names_the_key(cfg, named):
+    with pytest.raises(ValueError, match=named.replace(".", r"\.")):
+        training.check_choices(cfg)
+
+
+def test_check_choices_accepts_the_recipe_defaults():
+    training.check_choices({"env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
+                            "collector": {"total_frames": 10, "num_workers": 1,
+                                          "backend": "single"}, "device": "cpu"})  # fmt: skip
+
+
+def test_the_replay_buffer_stores_only_what_the_losses_read():
+    env = training.make_env("ideal", seed=0, num_envs=2)
+    rollout = env.rollout(3)
+    stored = training.select_for_replay(rollout)
+    assert stored.batch_size == (6,)
+    assert set(stored.keys(True, True)) == set(training.REPLAY_KEYS)
+    # 2 AUVs: obs 37 + 37 (next) + action 3 + reward, cost float32; done, terminated bool
+    expected = 2 * ((37 + 37 + 3 + 1 + 1) * 4 + 2 * 1)
+    assert training.bytes_per_frame(stored[0]) == expected
+    whole = sum(t.numel() * t.element_size() for t in rollout[0, 0].values(True, True))
+    assert whole > 20 * expected  # the env's tensordict carries the simulator state
+
+
+def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
+    class Loss(torch.nn.Module):  # anything with spec / set_lyapunov_spec
+        def __init__(self):
+            super().__init__()
+            self.spec = LyapunovSpec()
+
+        def set_lyapunov_spec(self, spec):
+            self.spec = spec
+
+    loss = Loss()
+    trigger = AdvisorTrigger(RuleBasedAdvisor(), "task", log_path=tmp_path / "a.jsonl")
+    progress = {"frames": 0}
+    modules = {"spec": training.SpecState(loss), "advisor": trigger}
+    ckpt, rotation = training.make_checkpoint(tmp_path, modules=modules, progress=progress)
+    loss.set_lyapunov_spec(LyapunovSpec(form="log", alpha=0.05))
+    trigger.load_state_dict({"last_frame": 300})
+    progress["frames"] = 400
+    rotation.save(ckpt, step=400)
+
+    fresh_loss = Loss()
+    fresh = AdvisorTrigger(RuleBasedAdvisor(), "task", log_path=tmp_path / "b.jsonl")
+    fresh_progress = {"frames": 0}
+    ckpt2, _ = training.make_checkpoint(tmp_path, modules={"spec": training.SpecState(fresh_loss),
+                                                           "advisor": fresh},
+                                        progress=fresh_progress)  # fmt: skip
+    assert training.resume_latest(tmp_path, ckpt2, fresh_progress)[0] == 400
+    assert (fresh_loss.spec.form, fresh_loss.spec.alpha) == ("log", 0.05)
+    # the cooldown runs on from the restored consultation frame: no "start" consultation
+    assert fresh.reason(400, None) is None and fresh.state_dict() == {"last_frame": 300}
+
+
+def test_feedback_batch_puts_time_second_last_per_auv():
+    obs = torch.arange(2 * 5 * 3 * 37, dtype=torch.float32).reshape(2, 5, 3, 37)
+    data = TensorDict({("agents", "observation"): obs,
+                       ("next", "agents", "reward"): torch.zeros(2, 5, 3, 1)}, [2, 5])  # fmt: skip
+    fb = diffusion.feedback_batch(data)
+    assert fb["observation"].shape == (2, 3, 5, 37) and fb.batch_size == (2, 3, 5)
+    torch.testing.assert_close(fb["observation"][1, 2, 4], obs[1, 4, 2])
+
+
+def test_ranked_candidates_and_the_live_lyapunov_critic():
+    env = diffusion.make_history_env("ideal", history=2, seed=0, num_envs=2, max_steps=20)
+    from torchrl_auv.modules import DiffusionProposer
+
+    proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
+    actor = training.make_actor(env, (16,))
+    critic = diffusion.make_lyapunov_critic(env, (16,))
+    loss = diffusion.make_lac_loss(actor, critic, env)
+    policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov", actor=actor,
+                                             critic_out_key=diffusion.LYAPUNOV_RAW,
+                                             spec=loss.spec)  # fmt: skip
+    td = policy(env.reset())
+    scores, ranking = td["agents", "selector", "scores"], td["agents", "selector", "ranking"]
+    assert scores.shape[-1] == 4  # K = 3 candidates and the actor's own action
+    # each rank executes the candidate of that place in the ranking (scores sorted, best first)
+    ordered = scores.gather(-1, ranking)
+    assert (ordered[..., :-1] >= ordered[..., 1:]).all()
+    for rank in (0, 3):
+        torch.manual_seed(1)
+        out = diffusion.RankedCandidate(policy, rank)(env.reset())
+        first = torch.cat([out["agents", "proposer", "first_actions"],
+                           out[diffusion.ACTOR_ACTION].unsqueeze(-2)], -2)  # fmt: skip
+        index = out["agents", "selector", "ranking"][..., rank]
+        chosen = first.gather(-2, index[..., None, None].expand(2, 2, 1, 3))[..., 0, :]
+        torch.testing.assert_close(out["agents", "action"], chosen)
+    # the selector scores with the critic the loss trains (shared parameters, no copy)
+    obs = td["agents", "observation"]
+    before = policy[-1].scores(obs, td["agents", "proposer", "first_actions"]).clone()
+    with torch.no_grad():
+        for p in loss.lyapunov_network_params.values(True, True):
+            p.add_(0.5)
+    after = policy[-1].scores(obs, td["agents", "proposer", "first_actions"])
+    assert not torch.allclose(before, after)

@@ -1,0 +1,282 @@
+"""Factories of the diffusion recipes: the history env, the first stage (demonstrations and
+proposer pretraining, cached), the proposer-selector policies and the Lyapunov loss.
+
+Keys on the ``("agents", ...)`` layout: the proposer reads ``("agents", "observation")`` and
+``("agents", "history", ...)`` and writes ``("agents", "proposer", "candidates")``
+``[*B, N, K, H, 3]``; the actor's own action goes to ``("agents", "actor", "action")``; the
+selector writes the executed ``("agents", "action")`` and ``("agents", "selector", ...)``.
+
+Examples:
+    >>> env = make_history_env("ideal", seed=0, num_envs=2, history=3)
+    >>> proposer = DiffusionProposer.for_env(env, num_inference_steps=2, horizon=4)
+    >>> td = ProposerAlone(proposer)(env.reset())
+    >>> td["agents", "proposer", "candidates"].shape, td["agents", "action"].shape
+    (torch.Size([2, 2, 5, 4, 3]), torch.Size([2, 2, 3]))
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from pathlib import Path
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from tensordict.nn import TensorDictModule, TensorDictModuleBase, TensorDictSequential
+from torch import nn
+from torchrl.envs import TransformedEnv
+from torchrl.modules import MLP, ProbabilisticActor
+
+from torchrl_auv.envs import StateActionHistory
+from torchrl_auv.envs.demonstrations import collect_demonstrations, save_demonstrations
+from torchrl_auv.modules import DiffusionProposer
+from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, LyapunovSpec
+from torchrl_auv.objectives import pretrain_proposer as pretrain
+from torchrl_auv.training.factories import ACTION, AGENTS, OBSERVATION, _dims, make_env
+
+__all__ = [
+    "ACTOR_ACTION",
+    "LYAPUNOV_RAW",
+    "ProposerAlone",
+    "RankedCandidate",
+    "acting_actor",
+    "evaluation_policies",
+    "feedback_batch",
+    "lac_optimisers",
+    "make_history_env",
+    "make_lac_loss",
+    "make_lyapunov_critic",
+    "make_selection_policy",
+    "prepare_proposer",
+    "proposer_from_config",
+]
+
+log = logging.getLogger(__name__)
+ACTOR_ACTION = (AGENTS, "actor", "action")
+LYAPUNOV_RAW = (AGENTS, "lyapunov_raw")
+
+
+def make_history_env(sea_state: str = "ideal", *, history: int = 10, **env_kwargs):
+    """:func:`~torchrl_auv.training.make_env` with :class:`~torchrl_auv.envs.StateActionHistory`
+    (the last ``history`` observation-action pairs per AUV, the proposer's conditioning)."""
+    env = make_env(sea_state, **env_kwargs)
+    return TransformedEnv(
+        env, StateActionHistory(history, observation_key=OBSERVATION, action_key=ACTION)
+    )
+
+
+def prepare_proposer(
+    run_dir: str | Path,
+    *,
+    path: str | None = None,
+    episodes: int = 4,
+    max_steps: int = 1000,
+    steps: int = 2000,
+    batch_size: int = 32,
+    lr: float = 1e-4,
+    num_candidates: int = 5,
+    horizon: int = 8,
+    history: int = 10,
+    num_inference_steps: int = 50,
+    sampler: str = "ddpm",
+    hidden: int = 128,
+    sea_state: str = "ideal",
+    controller: str = "s_surface",
+    rate_model: str = "shannon",
+    seed: int = 0,
+) -> DiffusionProposer:
+    """The first stage the diffusion recipes share: a pretrained proposer.
+
+    Loads ``path`` when given; else ``run_dir/proposer/proposer.pt`` when an earlier run (or
+    an interrupted one) left it; else collects ``episodes`` scripted-expert episodes of
+    ``max_steps`` decisions (``run_dir/demonstrations``), pretrains a proposer on them for
+    ``steps`` updates (overridden decisions left out) and saves it there.
+    """
+    cached = Path(run_dir) / "proposer" / "proposer.pt"
+    for candidate in (Path(path) if path else None, cached):
+        if candidate is not None and candidate.exists():
+            log.info("proposer: loading %s", candidate)
+            return DiffusionProposer.load(candidate)
+    if path:
+        raise FileNotFoundError(f"proposer.path {path} does not exist")
+    data = collect_demonstrations(
+        "data_collection", episodes=episodes, max_steps=max_steps, horizon=horizon,
+        history=history, sea_state=sea_state, controller=controller, seed=seed,
+        rate_model=rate_model,
+    )  # fmt: skip
+    save_demonstrations(data, Path(run_dir) / "demonstrations")
+    obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
+    proposer = DiffusionProposer(
+        obs_dim + history * (obs_dim + act_dim + 1), act_dim, state_key=OBSERVATION,
+        history_key=(AGENTS, "history"), num_candidates=num_candidates, horizon=horizon,
+        num_inference_steps=num_inference_steps, sampler=sampler,
+        noise_model_kwargs={"hidden": hidden},
+    )  # fmt: skip
+    # the dataset's keys are flat ("observation", ("history", ...)): nest them like the env's
+    nested = data.empty()
+    nested[OBSERVATION] = data["observation"]
+    nested[AGENTS, "history"] = data["history"]
+    for key in ("action_chunk", "action_chunk_mask", "overridden"):
+        nested[key] = data[key]
+    result = pretrain(proposer, nested, steps=steps, batch_size=batch_size, lr=lr, seed=seed,
+                      log_every=max(1, steps // 20), eval_every=max(1, steps // 5))  # fmt: skip
+    log.info("proposer: pretrained %d steps, held-out loss %.3f", steps, result.heldout_loss)
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    proposer.save(cached)
+    return proposer
+
+
+def proposer_from_config(run_dir: str | Path, cfg) -> DiffusionProposer:
+    """:func:`prepare_proposer` with a recipe's ``proposer`` group (and ``env``, ``seed``)."""
+    p = cfg.proposer
+    return prepare_proposer(
+        run_dir, path=p.path, episodes=p.demo_episodes, max_steps=p.demo_steps,
+        steps=p.pretrain_steps, batch_size=p.batch_size, lr=p.lr, num_candidates=p.num_candidates,
+        horizon=p.horizon, history=p.history, num_inference_steps=p.num_inference_steps,
+        sampler=p.sampler, hidden=p.hidden, sea_state=p.demo_sea_state,
+        controller=cfg.env.controller, rate_model=cfg.env.rate_model, seed=cfg.seed,
+    )  # fmt: skip
+
+
+def evaluation_policies(name: str, policy, actor, proposer: DiffusionProposer) -> dict:
+    """The diffusion recipes' evaluation rows: the framework (``name``), each rank of its
+    selector's ranking executed on its own (``OA`` = rank 0, ``CA1`` ... over the K candidates
+    and, with an actor, its own action), the actor alone (``RL``) and the proposer alone."""
+    rows = {name: lambda _: policy, "proposer alone": lambda _: ProposerAlone(proposer)}
+    if actor is not None:
+        rows["RL"] = lambda _: actor
+    ranks = proposer.num_candidates + (actor is not None)
+    for rank in range(ranks):
+        rows["OA" if rank == 0 else f"CA{rank}"] = lambda _, r=rank: RankedCandidate(policy, r)
+    return rows
+
+
+class ProposerAlone(TensorDictModuleBase):
+    """The proposer acting alone: candidate 0's first action, re-planned every decision (the
+    candidates are i.i.d. samples, so candidate 0 is one random draw of the proposer)."""
+
+    def __init__(self, proposer: DiffusionProposer) -> None:
+        super().__init__()
+        self.proposer = proposer
+        self.in_keys, self.out_keys = proposer.in_keys, [*proposer.out_keys, ACTION]
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        self.proposer(tensordict)
+        first = tensordict[AGENTS, "proposer", "first_actions"]
+        return tensordict.set(ACTION, first[..., 0, :])
+
+
+def feedback_batch(data: TensorDictBase) -> TensorDict:
+    """The entries of a collected batch ``[B, T]`` the advisor's feedback reads, with time the
+    second-last dim per AUV (``observation`` ``[B, N, T, obs]``, ``("next", "reward")``
+    ``[B, N, T, 1]``), as :func:`~torchrl_auv.advisor.feedback_from_training` expects."""
+    observation = data[OBSERVATION].transpose(-2, -3)
+    return TensorDict(
+        {
+            "observation": observation,
+            ("next", "reward"): data["next", AGENTS, "reward"].transpose(-2, -3),
+        },
+        batch_size=observation.shape[:-1],
+    )
+
+
+def acting_actor(actor: ProbabilisticActor, out_key=ACTOR_ACTION) -> ProbabilisticActor:
+    """A second head on ``actor``'s network (shared parameters) writing ``out_key``: the
+    actor's own action as one more candidate, while the loss trains ``actor`` itself."""
+    dist = actor.module[-1]
+    return ProbabilisticActor(actor.module[0], in_keys=dist.in_keys, out_keys=[out_key],
+                              distribution_class=dist.distribution_class,
+                              distribution_kwargs=dict(dist.distribution_kwargs))  # fmt: skip
+
+
+def make_selection_policy(
+    proposer: DiffusionProposer,
+    critic: TensorDictModuleBase,
+    *,
+    mode: str,
+    critic_out_key,
+    actor: ProbabilisticActor | None = None,
+    spec: LyapunovSpec | None = None,
+) -> TensorDictSequential:
+    """Proposer, then (with ``actor``) the actor's own action, then the selector: argmax Q
+    (``mode="q"``) or argmin L (``"lyapunov"``) over the K candidates' first actions (and the
+    actor's); writes the executed ``("agents", "action")``."""
+    selector = CandidateSelector(
+        critic, mode=mode, spec=spec, include_actor_action=actor is not None,
+        candidates_key=(AGENTS, "proposer", "candidates"), observation_key=OBSERVATION,
+        action_key=ACTION, actor_action_key=ACTOR_ACTION, critic_action_key=ACTION,
+        critic_out_key=critic_out_key,
+    )  # fmt: skip
+    parts = [proposer] + ([acting_actor(actor)] if actor is not None else []) + [selector]
+    return TensorDictSequential(*parts)
+
+
+class RankedCandidate(TensorDictModuleBase):
+    """Executes the candidate of a fixed rank of the selector's ranking (rank 0 is the
+    selector's own choice, "OA"; rank r >= 1 is "CA r" of the paper's Fig. 8/9)."""
+
+    def __init__(self, policy: TensorDictSequential, rank: int) -> None:
+        super().__init__()
+        self.policy, self.rank = policy, rank
+        self.in_keys, self.out_keys = policy.in_keys, [ACTION]
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        self.policy(tensordict)
+        first = tensordict[AGENTS, "proposer", "first_actions"]
+        if ACTOR_ACTION in tensordict.keys(True, True):
+            first = torch.cat([first, tensordict[ACTOR_ACTION].unsqueeze(-2)], -2)
+        index = tensordict[AGENTS, "selector", "ranking"][..., self.rank]
+        pick = index[..., None, None].expand(*index.shape, 1, first.shape[-1])
+        return tensordict.set(ACTION, torch.gather(first, -2, pick).squeeze(-2))
+
+
+def make_lyapunov_critic(env, hidden: Sequence[int] = (256, 256)) -> TensorDictModule:
+    """Per-AUV Lyapunov critic's raw output z(o, a) (shared weights) at
+    ``("agents", "lyapunov_raw")``; the form (e.g. softplus) is applied by the loss and the
+    selector."""
+    obs_dim, act_dim = _dims(env)
+    net = MLP(in_features=obs_dim + act_dim, out_features=1, num_cells=list(hidden),
+              activation_class=nn.ReLU)  # fmt: skip
+    return TensorDictModule(_Concat(net), in_keys=[OBSERVATION, ACTION], out_keys=[LYAPUNOV_RAW])
+
+
+class _Concat(nn.Module):
+    def __init__(self, net: nn.Module) -> None:
+        super().__init__()
+        self.net = net
+
+    def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        return self.net(torch.cat([obs, action], -1))
+
+
+def lac_optimisers(loss: LyapunovActorCriticLoss, optim) -> dict[str, torch.optim.Optimizer]:
+    """Adam for the actor, the Lyapunov critic and the dual variables (lambda, beta)."""
+    return {
+        "actor_optim": torch.optim.Adam(loss.actor_network_params.parameters(), lr=optim.actor_lr),
+        "critic_optim": torch.optim.Adam(loss.lyapunov_network_params.parameters(),
+                                         lr=optim.critic_lr),
+        "dual_optim": torch.optim.Adam([loss.log_lambda, loss.log_beta], lr=optim.dual_lr),
+    }  # fmt: skip
+
+
+def make_lac_loss(
+    actor: ProbabilisticActor,
+    critic: TensorDictModule,
+    env,
+    *,
+    gamma: float = 0.97,
+    form: str = "softplus",
+    stability_weight: float = 0.1,
+    lambda_max: float = 1.0,
+) -> LyapunovActorCriticLoss:
+    """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout (trained
+    on ``("agents", "cost")``)."""
+    loss = LyapunovActorCriticLoss(
+        actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
+        target_entropy=-float(_dims(env)[1]),
+    )  # fmt: skip
+    loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=(AGENTS, "cost"),
+                  done=(AGENTS, "done"), terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW,
+                  observation=OBSERVATION)  # fmt: skip
+    loss.make_value_estimator(gamma=gamma)
+    return loss

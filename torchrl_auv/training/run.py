@@ -1,0 +1,273 @@
+"""The bookkeeping every recipe repeats: start a run, per-batch metrics, the final evaluation.
+
+The training loop itself stays in each ``recipes/<name>/train.py`` (readable top to bottom);
+these helpers keep the scripts to what differs between the recipes.
+
+Examples:
+    >>> from tensordict import TensorDict
+    >>> data = TensorDict({("next", "agents", "cost"): torch.ones(2, 3, 2, 1),
+    ...                    ("next", "done"): torch.zeros(2, 3, 1, dtype=torch.bool)}, [2, 3])
+    >>> batch_metrics(data)
+    {'train/cost_mean': 1.0}
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import torch
+import tqdm
+from omegaconf import DictConfig, OmegaConf
+from tensordict import TensorDictBase
+from torchrl.checkpoint import Checkpoint, CheckpointRotation
+
+from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
+from torchrl_auv.training.config import check_choices
+from torchrl_auv.training.evaluation import evaluate
+from torchrl_auv.training.factories import make_env, make_logger, make_replay_buffer
+from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summary
+
+__all__ = [
+    "EPISODE_METRICS",
+    "RunTracker",
+    "batch_metrics",
+    "buffer_from_config",
+    "env_from_config",
+    "finish_run",
+    "gradient_step",
+    "log_metrics",
+    "logger_from_config",
+    "prepare_resume",
+    "progress_postfix",
+    "sac_optimisers",
+    "start_run",
+]
+
+log = logging.getLogger(__name__)
+#: The env's episode metrics logged as ``train/episode_<name>`` when episodes end in a batch.
+EPISODE_METRICS = ("sdr", "ssn", "collisions", "violations")
+
+
+def start_run(cfg: DictConfig) -> Path:
+    """Check the config's values (before any work), pin threads, seed torch, create and return
+    the run folder (``resume`` when set, else ``run_dir``)."""
+    check_choices(OmegaConf.to_container(cfg, resolve=True))
+    torch.set_num_threads(cfg.threads)
+    torch.manual_seed(cfg.seed)
+    run_dir = Path(cfg.resume or cfg.run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    return run_dir
+
+
+def prepare_resume(
+    cfg: DictConfig, run_dir: Path, modules: dict, progress: dict, buffer=None
+) -> tuple[Checkpoint, CheckpointRotation, int]:
+    """The run's checkpoint: ``modules``, the ``progress`` counters, the RNG states, the
+    resolved config (JSON) and, with ``cfg.checkpoint.replay_buffer``, the replay buffer. With
+    ``cfg.resume`` the newest checkpoint is loaded into them; a warning names the config groups
+    that differ from the stored ones. Returns ``(checkpoint, rotation, frames still to go)``."""
+    if buffer is not None and cfg.checkpoint.get("replay_buffer", False):
+        modules = {**modules, "replay_buffer": buffer}
+    config = OmegaConf.to_container(cfg, resolve=True)
+    checkpoint, rotation = make_checkpoint(run_dir, modules={**modules, "config": config},
+                                           progress=progress,
+                                           keep_last=cfg.checkpoint.keep_last)  # fmt: skip
+    if cfg.resume:
+        frames, values = resume_latest(run_dir, checkpoint, progress)
+        log.info("resumed %s at %d frames", run_dir, frames)
+        stored = values.get("config", {})
+        changed = sorted(k for k in config if k not in ("resume", "run_dir")
+                         and k in stored and stored[k] != config[k])  # fmt: skip
+        if changed:
+            log.warning("resumed with a config that differs from the checkpoint's in %s", changed)
+    return checkpoint, rotation, cfg.collector.total_frames - progress["frames"]
+
+
+def env_from_config(cfg: DictConfig, *, history: int = 0):
+    """The training env of ``cfg.env`` (seed ``cfg.seed``, ``cfg.device``), with a
+    ``history``-long state-action history when > 0 (the diffusion recipes)."""
+    kwargs = dict(
+        seed=cfg.seed, num_envs=cfg.env.num_envs, controller=cfg.env.controller,
+        rate_model=cfg.env.rate_model, max_steps=cfg.env.max_steps, device=cfg.device,
+    )  # fmt: skip
+    if history:
+        from torchrl_auv.training.diffusion import make_history_env
+
+        return make_history_env(cfg.env.sea_state, history=history, **kwargs)
+    return make_env(cfg.env.sea_state, **kwargs)
+
+
+def buffer_from_config(cfg: DictConfig, run_dir: Path):
+    """The replay buffer of ``cfg.replay_buffer`` (memmap under ``run_dir/replay``)."""
+    rb = cfg.replay_buffer
+    return make_replay_buffer(rb.size, batch_size=rb.batch_size, storage=rb.storage,
+                              scratch_dir=run_dir / "replay")  # fmt: skip
+
+
+def logger_from_config(cfg: DictConfig, run_dir: Path):
+    """The logger of ``cfg.logger`` (``None`` when its backend is empty); a wandb run stores
+    the resolved config."""
+    lg = cfg.logger
+    config = OmegaConf.to_container(cfg, resolve=True)
+    return make_logger(lg.backend, run_dir, exp_name=lg.exp_name, project=lg.project,
+                       offline=lg.offline, config=config)  # fmt: skip
+
+
+def sac_optimisers(loss, optim: DictConfig) -> dict[str, torch.optim.Optimizer]:
+    """Adam for a ``SACLoss``'s actor, Q ensemble and temperature (``optim.*_lr``)."""
+    return {
+        "actor_optim": torch.optim.Adam(loss.actor_network_params.parameters(), lr=optim.actor_lr),
+        "critic_optim": torch.optim.Adam(loss.qvalue_network_params.parameters(),
+                                         lr=optim.critic_lr),
+        "alpha_optim": torch.optim.Adam([loss.log_alpha], lr=optim.alpha_lr),
+    }  # fmt: skip
+
+
+def gradient_step(loss, optimisers: Mapping[str, torch.optim.Optimizer], updater, batch):
+    """One update: the sum of ``loss(batch)``'s ``loss_*`` terms backpropagated, every
+    optimiser stepped, the target networks updated. Returns the loss output (detached)."""
+    out = loss(batch)
+    total = sum(value for key, value in out.items() if key.startswith("loss_"))
+    for opt in optimisers.values():
+        opt.zero_grad()
+    total.backward()
+    for opt in optimisers.values():
+        opt.step()
+    updater.step()
+    return out.detach()
+
+
+def batch_metrics(data: TensorDictBase) -> dict[str, float]:
+    """``train/cost_mean`` (mean per AUV and decision of the collected batch) and, when
+    episodes ended in it, ``train/episode_<metric>`` averaged over those episodes."""
+    out = {"train/cost_mean": data["next", "agents", "cost"].mean().item()}
+    ended = data["next", "done"][..., 0]
+    if ended.any():
+        for name in EPISODE_METRICS:
+            value = data["next", "metrics", name][ended].float().mean().item()
+            out[f"train/episode_{name}"] = value
+    return out
+
+
+def progress_postfix(metrics: Mapping[str, float], spec=None) -> dict[str, str]:
+    """What a recipe's tqdm bar shows after each batch: the batch's cost per AUV-decision
+    (reward = -cost), the last ended episodes' SDR (Mbit) and SSN, and with a Lyapunov loss
+    lambda and the form in force."""
+    nan = float("nan")
+    out = {"cost": f"{metrics['train/cost_mean']:.3f}",
+           "sdr": f"{metrics.get('train/episode_sdr', nan):.1f}",
+           "ssn": f"{metrics.get('train/episode_ssn', nan):.1f}"}  # fmt: skip
+    if "train/lambda" in metrics:
+        out["lambda"] = f"{metrics['train/lambda']:.2f}"
+    if spec is not None:
+        out["form"] = spec.form
+    return out
+
+
+def log_metrics(
+    logger, metrics: Mapping[str, float], step: int, *, curve: Path | None = None
+) -> None:
+    """Every metric to a TorchRL logger (none when ``logger`` is ``None``) and, with ``curve``,
+    appended to that CSV (long format ``step,key,value``: the learning curve survives a resume
+    and needs no logger)."""
+    if logger is not None:
+        for key, value in metrics.items():
+            logger.log_scalar(key, value, step=step)
+    if curve is not None:
+        new = not Path(curve).exists()
+        with open(curve, "a", newline="") as handle:
+            writer = csv.writer(handle)
+            if new:
+                writer.writerow(("step", "key", "value"))
+            writer.writerows((step, key, value) for key, value in metrics.items())
+
+
+class RunTracker:
+    """The bookkeeping around a recipe's loop: a tqdm bar (frames, cost, SDR, SSN, lambda,
+    form), ``time/`` metrics, logging (and ``train_curve.csv``), a checkpoint every
+    ``cfg.checkpoint.every_frames`` frames and one at the end.
+
+    The recipe counts ``progress["frames"]`` itself (before its updates) and calls
+    :meth:`step` once per collected batch and :meth:`finish` after the loop.
+    """
+
+    def __init__(self, cfg: DictConfig, run_dir: Path, logger, progress: dict, checkpoint,
+                 rotation) -> None:  # fmt: skip
+        self.cfg, self.logger, self.progress = cfg, logger, progress
+        self.checkpoint, self.rotation = checkpoint, rotation
+        self.curve = Path(run_dir) / "train_curve.csv"
+        self.bar = tqdm.tqdm(total=cfg.collector.total_frames, initial=progress["frames"],
+                             unit="frame")  # fmt: skip
+        self.start = time.perf_counter()
+        self.frames_at_start = self.last_saved = progress["frames"]
+
+    def rate(self) -> float:
+        """Frames per second of this session (collection and updates together)."""
+        elapsed = max(time.perf_counter() - self.start, 1e-9)
+        return (self.progress["frames"] - self.frames_at_start) / elapsed
+
+    def step(self, data: TensorDictBase, metrics: dict[str, float], spec=None) -> None:
+        """After a batch: add the batch's metrics and the rate, log, advance the bar, save a
+        checkpoint when due."""
+        metrics.update(batch_metrics(data))
+        metrics["time/frames_per_s"] = self.rate()
+        metrics["time/elapsed_s"] = time.perf_counter() - self.start
+        frames = self.progress["frames"]
+        log_metrics(self.logger, metrics, frames, curve=self.curve)
+        self.bar.update(data.numel())
+        self.bar.set_postfix(progress_postfix(metrics, spec))
+        if frames - self.last_saved >= self.cfg.checkpoint.every_frames:
+            self.rotation.save(self.checkpoint, step=frames)
+            self.last_saved = frames
+
+    def finish(self, collector) -> dict[str, object]:
+        """Shut the collector down, save the final checkpoint; returns the session's facts
+        (frames, wall time, training frames/s) for the summary."""
+        collector.shutdown()
+        self.bar.close()
+        self.rotation.save(self.checkpoint, step=self.progress["frames"])
+        return {"frames": self.progress["frames"],
+                "wall time this session (s)": time.perf_counter() - self.start,
+                "training frames/s": self.rate()}  # fmt: skip
+
+
+def finish_run(
+    cfg: DictConfig,
+    run_dir: Path,
+    logger,
+    policies: Mapping[str, Callable],
+    *,
+    title: str,
+    facts: Mapping[str, object],
+    step: int,
+    history: int = 0,
+) -> Path:
+    """Evaluate ``policies`` (and nothing else: pass the reference ones in) on the held-out
+    ``cfg.eval`` scenes (with a ``history``-long state-action history when > 0), write
+    ``eval.csv`` and ``summary.md``, log ``eval/<sea>/<policy>/<metric>`` and close the
+    logger. Returns the summary's path."""
+
+    def eval_env(sea: str, seed: int):
+        kwargs = dict(seed=seed, num_envs=cfg.eval.num_envs, controller=cfg.env.controller,
+                      rate_model=cfg.env.rate_model, max_steps=cfg.eval.steps)  # fmt: skip
+        if history:
+            from torchrl_auv.training.diffusion import make_history_env
+
+            return make_history_env(sea, history=history, **kwargs)
+        return make_env(sea, **kwargs)
+
+    rows = evaluate(eval_env, policies, cfg.eval.sea_states, seed=cfg.eval.seed,
+                    steps=cfg.eval.steps)  # fmt: skip
+    write_eval(rows, run_dir)
+    for row in rows:
+        log_metrics(logger, {f"eval/{row['sea_state']}/{row['policy']}/{key}": row[key]
+                             for key in SUMMARY_COLUMNS}, step)  # fmt: skip
+    summary = write_summary(run_dir, title=title, rows=rows, facts=facts)
+    if logger is not None and hasattr(logger, "experiment"):
+        logger.experiment.finish()
+    log.info("summary: %s", summary)
+    return summary
