@@ -27,10 +27,11 @@ RECIPES = ("sac", "diffusion", "diffusion_rl", "diffusion_lac")
 
 def run(recipe: str, run_dir: Path, frames: int, proposer: Path | None) -> float:
     overrides = ["--config-name=quick", f"run_dir={run_dir}", f"collector.total_frames={frames}",
-                 "collector.frames_per_batch=200", "collector.init_random_frames=0",
-                 "eval.steps=5", "logger.backend="]  # fmt: skip
+                 "collector.frames_per_batch=200", "eval.steps=5", "logger.backend="]  # fmt: skip
     if recipe != "diffusion":
         overrides.append("optim.updates_per_batch=50")
+    if recipe == "sac":  # the others have no random phase (the proposer acts from the start)
+        overrides.append("collector.init_random_frames=0")
     if proposer is not None:
         overrides.append(f"proposer.path={proposer}")
     env = {**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")}

@@ -120,3 +120,17 @@ def test_ranked_candidates_and_the_live_lyapunov_critic():
             p.add_(0.5)
     after = policy[-1].scores(obs, td["agents", "proposer", "first_actions"])
     assert not torch.allclose(before, after)
+
+
+def test_evaluation_rows_repeat_on_the_same_seed_whatever_the_global_rng():
+    def make(sea, seed):
+        return training.make_env(sea, seed=seed, num_envs=2, max_steps=15)
+
+    rows = []
+    for noise in (0, 1):
+        torch.manual_seed(noise)  # a different global state before each evaluation
+        rows.append(training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=5,
+                                      steps=15))  # fmt: skip
+    assert rows[0] == rows[1]
+    other = training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=6, steps=15)
+    assert other[0]["cost_mean"] != rows[0][0]["cost_mean"]

@@ -133,7 +133,9 @@ def evaluate(
         policies: name -> ``env -> policy`` (a TensorDict module, or ``None`` for random
             actions); e.g. ``{"trained": lambda env: actor, **reference_policies()}``.
         sea_states: presets to evaluate in.
-        seed: the evaluation seed (keep it apart from the training seeds).
+        seed: the evaluation seed (keep it apart from the training seeds): the scenes' and,
+            through torch's global generator (forked, restored after), the random actions'
+            and the proposer's samples.
         steps: decisions per episode.
 
     Returns:
@@ -144,7 +146,9 @@ def evaluate(
         for sea_state in sea_states:
             for name, build in policies.items():
                 env = make_env(sea_state, seed)
-                stats = episode_stats(env, build(env), steps)
+                with torch.random.fork_rng():  # random actions and proposals: seeded too
+                    torch.manual_seed(seed)
+                    stats = episode_stats(env, build(env), steps)
                 rows.append({"sea_state": sea_state, "policy": name, **stats})
     return rows
 
