@@ -1,6 +1,6 @@
 """Main job: the paper's Table III tracking experiment, written under ``runs/main/<stamp>/``.
 
-Run from the repository root: ``python -m recipes.main`` (``make demo``); Hydra overrides work,
+Run from the repository root: ``python -m recipes.main`` (``make table3``); Hydra overrides work,
 e.g. ``python -m recipes.main experiment.runs=2 logger.backend=csv``.
 
 Outputs: ``table3.csv`` and ``table3.md`` (mean/std of |heading error| rad and |depth error| m

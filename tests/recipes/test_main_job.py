@@ -1,4 +1,5 @@
-"""The main job (`make demo`) runs end to end on a tiny budget and writes its outputs."""
+"""The Table III job (`make table3`, `recipes/main.py`) runs end to end on a tiny budget and writes
+its outputs."""
 
 from __future__ import annotations
 
