@@ -100,3 +100,10 @@ def test_a_run_killed_with_sigkill_resumes_from_its_latest_checkpoint(tmp_path):
     assert "- frames: 1000" in summary  # continued the count, did not start over
     steps = _checkpoint_steps(run_dir)
     assert steps[-1] == 1000 and len(steps) <= 2  # rotation keeps the newest two
+
+    # the finished run's checkpoints are not overwritten by a new run in the same folder
+    again = _run(_command(run_dir, "collector.total_frames=200", "logger.backend="), timeout=120)
+    assert again.returncode != 0 and f"resume={run_dir}" in again.stderr
+    assert _checkpoint_steps(run_dir) == steps
+    missing = _run(_command(run_dir, "logger.backend=", f"resume={tmp_path / 'none'}"), 120)
+    assert missing.returncode != 0 and "holds no checkpoints" in missing.stderr

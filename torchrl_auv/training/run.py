@@ -54,11 +54,19 @@ EPISODE_METRICS = ("sdr", "ssn", "collisions", "violations")
 
 def start_run(cfg: DictConfig) -> Path:
     """Check the config's values (before any work), pin threads, seed torch, create and return
-    the run folder (``resume`` when set, else ``run_dir``)."""
+    the run folder (``resume`` when set, else ``run_dir``). A ``run_dir`` that already holds
+    checkpoints is refused without ``resume`` (its checkpoints would be overwritten), and a
+    ``resume`` folder without checkpoints is refused too."""
     check_choices(OmegaConf.to_container(cfg, resolve=True))
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     run_dir = Path(cfg.resume or cfg.run_dir)
+    checkpoints = run_dir / "checkpoints"
+    if not cfg.resume and checkpoints.is_dir() and any(checkpoints.iterdir()):
+        raise ValueError(f"run_dir {run_dir} already holds a run's checkpoints; pass "
+                         f"resume={run_dir} to continue it, or choose a new run_dir")  # fmt: skip
+    if cfg.resume and not checkpoints.is_dir():
+        raise ValueError(f"resume={run_dir} holds no checkpoints/ to continue from")
     run_dir.mkdir(parents=True, exist_ok=True)
     return run_dir
 
