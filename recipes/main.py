@@ -19,7 +19,7 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from recipes.utils import configure_threads, make_logger, seed_everything
+from recipes.utils import configure_threads, seed_everything
 
 log = logging.getLogger(__name__)
 COLUMNS = (
@@ -61,9 +61,12 @@ def main(cfg: DictConfig) -> None:
     configure_threads(cfg.threads)
     seed_everything(cfg.seed)
     from torchrl_auv.report import plot_tracking, tracking_table
+    from torchrl_auv.training import make_logger
 
     run_dir = Path(HydraConfig.get().runtime.output_dir)  # runs/main/<stamp>, config in .hydra/
-    logger = make_logger(cfg.logger, run_dir)
+    lg = cfg.logger
+    logger = make_logger(lg.backend, run_dir, exp_name=lg.exp_name, project=lg.project,
+                         offline=lg.mode == "offline")  # fmt: skip
     log.info("main job: writing under %s", run_dir)
 
     exp = cfg.experiment

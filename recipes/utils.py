@@ -1,11 +1,10 @@
-"""Small factories shared by the recipes: threads, seeding, loggers."""
+"""Small helpers of the command-line recipes: threads and seeding."""
 
 from __future__ import annotations
 
 import logging
 import os
 import random
-from typing import Any
 
 import numpy as np
 import torch
@@ -31,23 +30,3 @@ def seed_everything(seed: int) -> torch.Generator:
     np.random.seed(seed % 2**32)  # noqa: NPY002 - recipes seed the legacy global RNG on purpose
     torch.manual_seed(seed)
     return torch.Generator().manual_seed(seed)
-
-
-def make_logger(cfg: Any, run_dir: os.PathLike[str] | str):
-    """A TorchRL logger from the ``logger`` config group (wandb offline by default).
-
-    ``cfg.backend`` is any of TorchRL's logger types (``wandb``, ``csv``, ``tensorboard``, ...)
-    or empty for no logger. The logger writes its files under ``run_dir`` (its log_dir).
-    """
-    from torchrl.record.loggers import get_logger
-
-    if not cfg.backend:
-        return None
-    kwargs: dict[str, Any] = {}
-    if cfg.backend == "wandb":
-        kwargs["wandb_kwargs"] = {
-            "offline": cfg.mode == "offline",
-            "project": cfg.project,
-            "config": dict(cfg.get("config", {}) or {}),
-        }
-    return get_logger(cfg.backend, logger_name=str(run_dir), experiment_name=cfg.exp_name, **kwargs)

@@ -50,6 +50,9 @@ from torchrl_auv.iout.approach import approach_direction, unit
 
 __all__ = ["ExpertConfig", "expert_setpoints", "other_positions"]
 
+#: The edges' inward unit normals (north, east), in the order of ``edges``: x, X - x, y, Y - y.
+INWARD_NORMALS = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))
+
 
 @dataclass(frozen=True)
 class ExpertConfig:
@@ -223,7 +226,7 @@ def _edge_arrival(
     """``(direction, use)``: where the point steered for lies within ``edge_arrival_m`` of an
     edge and the way to it heads out across that edge, the approach that arrives along the
     edge instead (the outward part of the arrival dropped; toward the centre in a corner)."""
-    out = goal_dir.new_tensor([[-1.0, 0.0], [1.0, 0.0], [0.0, -1.0], [0.0, 1.0]])
+    out = -goal_dir.new_tensor(INWARD_NORMALS)
     outward = (goal_dir[..., None, :] * out).sum(-1).clamp_min(0.0)  # [*B, N, 4]
     outward = torch.where(_edges_of(edges, to_target) < cfg.edge_arrival_m, outward, 0.0)
     tangential = goal_dir - (outward[..., None] * out).sum(-2)
@@ -327,7 +330,7 @@ def expert_setpoints(
         # in a current the approach from downstream comes first: a narrower band
         radius = torch.where(flowing, cfg.edge_radius_current_m, cfg.edge_radius_m)
         radius = radius.to(direction.dtype)
-        normals = direction.new_tensor([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+        normals = direction.new_tensor(INWARD_NORMALS)
         goal_edges = _edges_of(edges, to_target)
         for k in range(4):
             normal = normals[k]

@@ -8,7 +8,7 @@ complete checkpoint: TorchRL publishes a checkpoint by renaming it into place, s
 short leaves no partial entry.
 
 Examples:
-    >>> import tempfile
+    >>> import tempfile, torch
     >>> net, progress = torch.nn.Linear(2, 1), {"frames": 0}
     >>> with tempfile.TemporaryDirectory() as run_dir:
     ...     ckpt, rotation = make_checkpoint(run_dir, modules={"net": net}, progress=progress)
@@ -25,7 +25,6 @@ import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 
-import torch
 from torchrl.checkpoint import Checkpoint, CheckpointRotation, GlobalRNGState
 
 __all__ = ["ProgressState", "SpecState", "make_checkpoint", "resume_latest"]
@@ -39,10 +38,10 @@ class ProgressState:
         self.values = values
 
     def state_dict(self) -> dict:
-        return {"values": {k: torch.tensor(v) for k, v in self.values.items()}}
+        return dict(self.values)
 
     def load_state_dict(self, state: Mapping) -> None:
-        self.values.update({k: v.item() for k, v in state["values"].items()})
+        self.values.update(state)
 
 
 def make_checkpoint(

@@ -23,16 +23,22 @@ from pathlib import Path
 import torch
 from tensordict import TensorDict, TensorDictBase
 from tensordict.nn import TensorDictModule, TensorDictModuleBase, TensorDictSequential
-from torch import nn
 from torchrl.envs import TransformedEnv
-from torchrl.modules import MLP, ProbabilisticActor
+from torchrl.modules import ProbabilisticActor
 
 from torchrl_auv.envs import StateActionHistory
 from torchrl_auv.envs.demonstrations import collect_demonstrations, save_demonstrations
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, LyapunovSpec
 from torchrl_auv.objectives import pretrain_proposer as pretrain
-from torchrl_auv.training.factories import ACTION, AGENTS, OBSERVATION, _dims, make_env
+from torchrl_auv.training.factories import (
+    ACTION,
+    AGENTS,
+    OBSERVATION,
+    ObsActionMLP,
+    _dims,
+    make_env,
+)
 
 __all__ = [
     "ACTOR_ACTION",
@@ -235,18 +241,8 @@ def make_lyapunov_critic(env, hidden: Sequence[int] = (256, 256)) -> TensorDictM
     ``("agents", "lyapunov_raw")``; the form (e.g. softplus) is applied by the loss and the
     selector."""
     obs_dim, act_dim = _dims(env)
-    net = MLP(in_features=obs_dim + act_dim, out_features=1, num_cells=list(hidden),
-              activation_class=nn.ReLU)  # fmt: skip
-    return TensorDictModule(_Concat(net), in_keys=[OBSERVATION, ACTION], out_keys=[LYAPUNOV_RAW])
-
-
-class _Concat(nn.Module):
-    def __init__(self, net: nn.Module) -> None:
-        super().__init__()
-        self.net = net
-
-    def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
-        return self.net(torch.cat([obs, action], -1))
+    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden), in_keys=[OBSERVATION, ACTION],
+                            out_keys=[LYAPUNOV_RAW])  # fmt: skip
 
 
 def lac_optimisers(loss: LyapunovActorCriticLoss, optim) -> dict[str, torch.optim.Optimizer]:

@@ -35,6 +35,7 @@ from torchrl_auv.envs import DataCollectionEnv
 
 __all__ = [
     "REPLAY_KEYS",
+    "ObsActionMLP",
     "bytes_per_frame",
     "make_actor",
     "make_collector",
@@ -121,6 +122,18 @@ def make_actor(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) -> Pr
     )
 
 
+class ObsActionMLP(nn.Module):
+    """An MLP of the concatenated observation and action (a critic's body), one output."""
+
+    def __init__(self, in_features: int, hidden: Sequence[int]) -> None:
+        super().__init__()
+        self.net = MLP(in_features=in_features, out_features=1, num_cells=list(hidden),
+                       activation_class=nn.ReLU)  # fmt: skip
+
+    def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        return self.net(torch.cat([obs, action], -1))
+
+
 def make_q_critic(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) -> TensorDictModule:
     """Per-AUV Q(o, a) (shared weights), written to ``("agents", "state_action_value")``.
 
@@ -128,18 +141,8 @@ def make_q_critic(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) ->
     output ``state_value`` when the action key is nested.
     """
     obs_dim, act_dim = _dims(env)
-    net = MLP(in_features=obs_dim + act_dim, out_features=1, num_cells=list(hidden),
-              activation_class=nn.ReLU)  # fmt: skip
-
-    class _Q(nn.Module):
-        def __init__(self) -> None:
-            super().__init__()
-            self.net = net
-
-        def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
-            return self.net(torch.cat([obs, action], -1))
-
-    return TensorDictModule(_Q(), in_keys=[OBSERVATION, ACTION], out_keys=[Q_VALUE])
+    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden), in_keys=[OBSERVATION, ACTION],
+                            out_keys=[Q_VALUE])  # fmt: skip
 
 
 def make_sac_loss(
@@ -233,6 +236,6 @@ def make_logger(
         return None
     kwargs = {}
     if backend == "wandb":
-        kwargs["wandb_kwargs"] = {"offline": offline, "project": project, "config": config or {},
-                                  "dir": str(run_dir)}  # fmt: skip
+        # TorchRL's WandbLogger writes under its log_dir (logger_name) already
+        kwargs["wandb_kwargs"] = {"offline": offline, "project": project, "config": config or {}}
     return get_logger(backend, logger_name=str(run_dir), experiment_name=exp_name, **kwargs)

@@ -27,6 +27,7 @@ from torchrl.checkpoint import Checkpoint, CheckpointRotation
 
 from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
 from torchrl_auv.training.config import check_choices
+from torchrl_auv.training.diffusion import make_history_env
 from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.factories import make_env, make_logger, make_replay_buffer
 from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summary
@@ -102,11 +103,14 @@ def env_from_config(cfg: DictConfig, *, history: int = 0):
         seed=cfg.seed, num_envs=cfg.env.num_envs, controller=cfg.env.controller,
         rate_model=cfg.env.rate_model, max_steps=cfg.env.max_steps, device=cfg.device,
     )  # fmt: skip
-    if history:
-        from torchrl_auv.training.diffusion import make_history_env
+    return _scene_env(cfg.env.sea_state, history, **kwargs)
 
-        return make_history_env(cfg.env.sea_state, history=history, **kwargs)
-    return make_env(cfg.env.sea_state, **kwargs)
+
+def _scene_env(sea_state: str, history: int, **kwargs):
+    """:func:`make_env`, wrapped with a ``history``-long state-action history when > 0."""
+    if history:
+        return make_history_env(sea_state, history=history, **kwargs)
+    return make_env(sea_state, **kwargs)
 
 
 def buffer_from_config(cfg: DictConfig, run_dir: Path):
@@ -260,13 +264,9 @@ def finish_run(
     logger. Returns the summary's path."""
 
     def eval_env(sea: str, seed: int):
-        kwargs = dict(seed=seed, num_envs=cfg.eval.num_envs, controller=cfg.env.controller,
-                      rate_model=cfg.env.rate_model, max_steps=cfg.eval.steps)  # fmt: skip
-        if history:
-            from torchrl_auv.training.diffusion import make_history_env
-
-            return make_history_env(sea, history=history, **kwargs)
-        return make_env(sea, **kwargs)
+        return _scene_env(sea, history, seed=seed, num_envs=cfg.eval.num_envs,
+                          controller=cfg.env.controller, rate_model=cfg.env.rate_model,
+                          max_steps=cfg.eval.steps)  # fmt: skip
 
     rows = evaluate(eval_env, policies, cfg.eval.sea_states, seed=cfg.eval.seed,
                     steps=cfg.eval.steps)  # fmt: skip
