@@ -18,11 +18,18 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 
-def setup(description: str, argv: Sequence[str] | None = None) -> argparse.Namespace:
-    """Parse the common options and pin torch's thread count before heavy work starts."""
+def setup(
+    description: str,
+    argv: Sequence[str] | None = None,
+    add_arguments: Callable[[argparse.ArgumentParser], None] | None = None,
+) -> argparse.Namespace:
+    """Parse the common options (and a benchmark's own, from ``add_arguments``) and pin
+    torch's thread count before heavy work starts."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--threads", type=int, default=1, help="torch intra-op threads")
     parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
+    if add_arguments is not None:
+        add_arguments(parser)
     args = parser.parse_args(argv)
     os.environ["OMP_NUM_THREADS"] = str(args.threads)
     import torch

@@ -36,6 +36,7 @@ from torchrl_auv.estimation import (
     dvl_bottom_lock,
 )
 from torchrl_auv.physics import ocean, remus100
+from torchrl_auv.physics._ops import small_matmul
 from torchrl_auv.physics.energy import shaft_power
 from torchrl_auv.physics.limits import depth_limits
 from torchrl_auv.physics.remus100 import rotation_matrix
@@ -100,7 +101,7 @@ def estimated_state(
     """
     attitude = torch.stack((eta[..., 3], eta[..., 4], kf_heading), -1)
     rot = rotation_matrix(attitude)
-    v_body = (rot.transpose(-1, -2) @ kf_mean[..., 3:].unsqueeze(-1)).squeeze(-1)
+    v_body = small_matmul(rot.transpose(-1, -2), kf_mean[..., 3:].unsqueeze(-1)).squeeze(-1)
     return torch.cat([kf_mean[..., :3], attitude], -1), torch.cat([v_body, nu[..., 3:]], -1)
 
 
@@ -110,7 +111,7 @@ def _speed_through_water(
     """``|v - v_water|`` (m/s): the vehicle's speed relative to the water velocity ``current`` =
     ``[speed, direction, w_down]`` (horizontal speed and direction, vertical positive down; what
     drag, and so the EC power model, depends on), all in NED."""
-    v_ned = (rotation_matrix(eta[..., 3:]) @ nu[..., :3].unsqueeze(-1)).squeeze(-1)
+    v_ned = small_matmul(rotation_matrix(eta[..., 3:]), nu[..., :3].unsqueeze(-1)).squeeze(-1)
     water_n = current[..., 0] * torch.cos(current[..., 1])
     water_e = current[..., 0] * torch.sin(current[..., 1])
     relative = torch.stack(

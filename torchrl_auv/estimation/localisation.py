@@ -29,6 +29,7 @@ import torch
 
 from torchrl_auv.estimation.kalman import kf_predict, kf_update, kf_update_sequential
 from torchrl_auv.estimation.sensors import SensorNoise
+from torchrl_auv.physics._ops import small_matmul
 from torchrl_auv.physics.remus100 import rotation_matrix
 
 __all__ = ["Localiser"]
@@ -121,7 +122,7 @@ class Localiser:
         is ``False``: there only the depth updates the filter. ``None`` means bottom lock
         everywhere (the same result as an all-``True`` mask)."""
         rot = rotation_matrix(attitude)
-        v_ned = (rot @ dvl_velocity.unsqueeze(-1)).squeeze(-1)
+        v_ned = small_matmul(rot, dvl_velocity.unsqueeze(-1)).squeeze(-1)
         z = torch.cat([v_ned, depth.unsqueeze(-1)], -1)
         # the compass error adds (sigma_psi |v_h|)^2 across track; it is spread over both
         # horizontal axes (conservative), which keeps R diagonal: four scalar updates.

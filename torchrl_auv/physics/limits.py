@@ -15,6 +15,7 @@ import math
 
 import torch
 
+from torchrl_auv.physics._ops import small_matmul
 from torchrl_auv.physics.remus100 import rotation_matrix
 
 __all__ = ["depth_limits", "diverged"]
@@ -63,10 +64,10 @@ def depth_limits(
     at_surface = depth < 0
     at_seabed = depth > seabed
     rot = rotation_matrix(eta[..., 3:])
-    v_ned = (rot @ nu[..., :3].unsqueeze(-1)).squeeze(-1)
+    v_ned = small_matmul(rot, nu[..., :3].unsqueeze(-1)).squeeze(-1)
     outward = (at_surface & (v_ned[..., 2] < 0)) | (at_seabed & (v_ned[..., 2] > 0))
     v_ned = torch.cat([v_ned[..., :2], torch.where(outward, 0.0, v_ned[..., 2]).unsqueeze(-1)], -1)
-    v_body = (rot.transpose(-1, -2) @ v_ned.unsqueeze(-1)).squeeze(-1)
+    v_body = small_matmul(rot.transpose(-1, -2), v_ned.unsqueeze(-1)).squeeze(-1)
     touched = (at_surface | at_seabed).unsqueeze(-1)
     nu_out = torch.cat([torch.where(touched, v_body, nu[..., :3]), nu[..., 3:]], -1)
     eta_out = torch.cat(

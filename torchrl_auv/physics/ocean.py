@@ -106,6 +106,8 @@ from dataclasses import dataclass
 import torch
 from tensordict import TensorDict
 
+from torchrl_auv.physics._ops import small_matmul
+
 __all__ = [
     "GRAVITY",
     "SEA_STATES",
@@ -802,7 +804,7 @@ def _profiles(
 
 def _dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     """Batched dot product over the last dim (a matmul: faster than ``(a * b).sum(-1)``)."""
-    return (a.unsqueeze(-2) @ b.unsqueeze(-1))[..., 0, 0]
+    return small_matmul(a.unsqueeze(-2), b.unsqueeze(-1))[..., 0, 0]
 
 
 def _velocity(

@@ -63,10 +63,14 @@ from functools import cached_property
 
 import torch
 
+from torchrl_auv.physics._ops import small_matmul
+from torchrl_auv.physics.euler import euler_matrices, trig_factors
+
 __all__ = [
     "STATE_COLUMNS",
     "Remus100Params",
     "compiled_step",
+    "coriolis",
     "dynamics",
     "kinematics",
     "propeller_forces",
@@ -288,7 +292,11 @@ class Remus100Params:
             kwargs = {"dtype": dtype, "device": key[1]}
             cached = {
                 "strips": torch.tensor(self.strip_positions, **kwargs),
-                "m_inv_t": torch.tensor(self.mass_matrix_inverse, **kwargs).T.contiguous(),
+                "limits": torch.tensor((self.delta_max, self.delta_max, self.n_max), **kwargs),
+                "time_constants": torch.tensor((self.t_fin, self.t_fin, self.t_prop), **kwargs),
+                "faded": torch.tensor((True, True, False, False, False, False), device=key[1]),
+                "powers": torch.tensor((0.0, 1.0, 2.0), **kwargs),
+                "force_map": _force_map(self).to(**kwargs),
             }
             self._tensor_cache[key] = cached
         return cached
@@ -356,6 +364,177 @@ def propeller_forces(
     return thrust, torque
 
 
+def coriolis(nu_r: torch.Tensor, params: Remus100Params | None = None) -> torch.Tensor:
+    r""":math:`C(\nu_r)\nu_r` (spec Sec. 2.4-2.5), ``[*B, 6]``: :math:`C_{RB}(\nu_r)\nu_r =
+    [\omega \times a;\ v \times a + \omega \times b]` with :math:`[a; b] = M_{RB}\nu_r`, plus
+    :math:`C_A` without its eight Munk entries.
+
+    :func:`dynamics` does not call this function: it uses the quadratic form's coefficients,
+    read off this function once per parameter set (:meth:`Remus100Params.tensors`).
+
+    >>> nu_r = torch.tensor([1.0, 0.0, 0.0, 0.0, 0.0, 0.1], dtype=torch.float64)
+    >>> round(coriolis(nu_r)[1].item(), 4)  # surge and yaw rate: sway force r m u (N)
+    3.1029
+    """
+    p = DEFAULT_PARAMS if params is None else params
+    u_r, v_r, w_r, rate_p, rate_q, rate_r = nu_r.unbind(-1)
+    m, zg = p.mass, p.z_g
+    ix, iy, iz = p.inertia
+    _, a22, a33, a44, a55, a66 = p.added_mass
+    a_1 = m * (u_r + zg * rate_q)
+    a_2 = m * (v_r - zg * rate_p)
+    a_3 = m * w_r
+    b_1 = -m * zg * v_r + (ix + m * zg**2) * rate_p
+    b_2 = m * zg * u_r + (iy + m * zg**2) * rate_q
+    b_3 = iz * rate_r
+    return torch.stack(
+        (
+            rate_q * a_3 - rate_r * a_2,
+            rate_r * a_1 - rate_p * a_3 - a33 * w_r * rate_p,
+            rate_p * a_2 - rate_q * a_1 + a22 * v_r * rate_p,
+            (v_r * a_3 - w_r * a_2)
+            + (rate_q * b_3 - rate_r * b_2)
+            + (a33 - a22) * v_r * w_r
+            + (a66 - a55) * rate_q * rate_r,
+            (w_r * a_1 - u_r * a_3) + (rate_r * b_1 - rate_p * b_3) + (a44 - a66) * rate_p * rate_r,
+            (u_r * a_2 - v_r * a_1) + (rate_p * b_2 - rate_q * b_1) + (a55 - a44) * rate_p * rate_q,
+        ),
+        -1,
+    )
+
+
+#: The features :func:`dynamics` computes, in order, with their widths. The generalised force
+#: is linear in them (:func:`_force_map`): propeller (:math:`n|n|`, :math:`U\max(n, 0)`, rpm),
+#: fins (:math:`U_{rh}^2\delta_r`, :math:`U_{rv}^2\delta_s` and those times
+#: the fin angle), hull lift and drag (:math:`U_r^2 [\cos\alpha, \sin\alpha] \otimes
+#: [1, \alpha, \alpha^2]`), cross-flow (:math:`|v_r + x_i r|(v_r + x_i r)` per strip),
+#: restoring (:math:`\cos\theta\sin\phi`, :math:`\sin\theta`), Coriolis
+#: (:math:`\nu_r \otimes \nu_r`), damping (:math:`\nu_r`, surge and sway faded) and the
+#: current's rotation (:math:`r u_c, r v_c`, added to :math:`\dot\nu` directly).
+FEATURES = (
+    ("propeller", 2), ("fins", 2), ("fin_drag", 2), ("hull", 6), ("crossflow", None),
+    ("restoring", 2), ("coriolis", 36), ("damping", 6), ("current_rotation", 2),
+)  # fmt: skip
+
+
+def _force_map(p: Remus100Params) -> torch.Tensor:
+    r"""``[F, 6]`` float64 map from the features (:data:`FEATURES`) to :math:`\dot\nu`:
+    the force coefficients of spec Secs. 3-6 times :math:`M^{-1}` (the current's rotation
+    enters :math:`\dot\nu` directly)."""
+    rows: list[list[float]] = []
+
+    def add(**lanes: float) -> None:
+        row = [0.0] * 6
+        for name, value in lanes.items():
+            row["XYZKMN".index(name)] = value
+        rows.append(row)
+
+    # propeller, from n|n| and U max(n, 0) in rpm: n_s = n / 60 (rev/s)
+    d4, d5 = p.rho * p.prop_diameter**4 / 3600.0, p.rho * p.prop_diameter**5 / 3600.0
+    advance = 60.0 * p.wake_fraction_factor / p.prop_diameter / p.j_max
+    add(X=(1 - p.thrust_deduction) * d4 * p.kt_0, K=d5 * p.kq_0 / 10.0)
+    add(X=(1 - p.thrust_deduction) * d4 * (p.kt_max - p.kt_0) * advance,
+        K=d5 * (p.kq_max - p.kq_0) * advance / 10.0)  # fmt: skip
+    fin = 0.5 * p.rho * 2 * p.fin_area
+    y_r, z_s, x_fin = -fin * p.cl_rudder, -fin * p.cl_stern, -p.length / 2
+    add(Y=y_r, N=x_fin * y_r)
+    add(Z=z_s, M=-x_fin * z_s)
+    add(X=y_r)
+    add(X=z_s)
+    area, cd0, cl_alpha, pi_e_ar = p.hull
+    half = 0.5 * p.rho * area
+    induced = cl_alpha * cl_alpha / pi_e_ar  # c_D = c_D0 + (c_L alpha)^2 / (pi e AR)
+    add(X=-half * cd0)  # cos, 1
+    add(Z=-half * cl_alpha)  # cos, alpha
+    add(X=-half * induced)  # cos, alpha^2
+    add(Z=-half * cd0)  # sin, 1
+    add(X=half * cl_alpha)  # sin, alpha
+    add(Z=-half * induced)  # sin, alpha^2
+    dx = p.length / (p.num_strips - 1)
+    cf_gain = 0.5 * p.rho * p.diameter * p.crossflow_cd * dx
+    for x in p.strip_positions:
+        add(Y=-cf_gain, N=-cf_gain * x)
+    zg_w = p.z_g * p.weight
+    add(K=-zg_w)
+    add(M=-zg_w)
+    # C(nu_r) nu_r is quadratic: its coefficients are half its (constant) Hessian
+    hessian = torch.func.hessian(lambda v: coriolis(v, p))(torch.zeros(6, dtype=torch.float64))
+    for i in range(6):
+        for j in range(6):
+            add(**{"XYZKMN"[k]: -0.5 * hessian[k, i, j].item() for k in range(6)})
+    for k, d in enumerate(p.damping_base):
+        add(**{"XYZKMN"[k]: -d})
+    forces = torch.tensor(rows, dtype=torch.float64)
+    nu_dot = forces @ torch.tensor(p.mass_matrix_inverse, dtype=torch.float64).T
+    rotation = torch.tensor([[0.0, -1.0, 0, 0, 0, 0], [1.0, 0, 0, 0, 0, 0]], dtype=torch.float64)
+    return torch.cat((nu_dot, rotation))  # [r v_c, -r u_c, 0, 0, 0, 0] from (r u_c, r v_c)
+
+
+def _same_batch(*tensors: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    """The inputs broadcast to one batch shape (views; no copy when they already agree)."""
+    shapes = {t.shape[:-1] for t in tensors}
+    if len(shapes) == 1:
+        return tensors
+    batch = torch.broadcast_shapes(*shapes)
+    return tuple(t.expand(*batch, t.shape[-1]) for t in tensors)
+
+
+def _features_and_rates(eta, nu, actuators, command, current, p, cos, sin):
+    """:func:`dynamics` from the cosines and sines of ``(phi, theta, psi, beta_c - psi)``:
+    ``(nu_dot, actuator_rate, saturated)``."""
+    const = p.tensors(nu.dtype, nu.device)
+    # 1-2. current in the body frame (yaw only) and relative velocity; a vertical water
+    # velocity, if given, acts along body z (yaw-only resolution, as PVS)
+    flow_c = current[..., :1] * torch.cat((cos[..., 3:], sin[..., 3:]), -1)  # u_c, v_c
+    if current.shape[-1] == 3:
+        flow_c = torch.cat((flow_c, current[..., 2:]), -1)
+    nu_r = nu - torch.nn.functional.pad(flow_c, (0, 6 - flow_c.shape[-1]))
+    speeds_sq = torch.stack((nu[..., :3], nu_r[..., :3]), -2).square()  # [*B, 2, 3]
+    norms_sq = speeds_sq.sum(-1)
+    speed, speed_r = norms_sq.sqrt().unbind(-1)  # U and U_r, [*B]
+    u_r_sq = speeds_sq[..., 1, :1]
+    fin_speed_sq = u_r_sq + speeds_sq[..., 1, 1:]  # U_rh^2, U_rv^2
+    alpha = torch.atan2(nu_r[..., 2:3], nu_r[..., :1])
+    # 3-4. saturated actuators, propeller
+    saturated = torch.where(
+        actuators.abs() >= const["limits"], actuators.sign() * const["limits"], actuators
+    )
+    rpm = saturated[..., 2:]  # (rpm -> rev/s in the force map)
+    propeller = torch.cat((rpm * rpm.abs(), speed[..., None] * rpm.clamp_min(0.0)), -1)
+    # 9. fins; 7. hull lift and drag; cross-flow per strip; 8. restoring
+    fins = fin_speed_sq * saturated[..., :2]
+    lift_drag = norms_sq[..., 1:] * torch.cat((alpha.cos(), alpha.sin()), -1)
+    hull = lift_drag[..., :, None] * alpha.pow(const["powers"])[..., None, :]  # alpha^0..2
+    strip_flow = nu_r[..., 1:2] + const["strips"] * nu_r[..., 5:6]
+    restoring = torch.cat((cos[..., 1:2] * sin[..., :1], sin[..., 1:2]), -1)
+    # 5-6. Coriolis (quadratic), linear damping with surge and sway faded by e^{-3 U_r}
+    fade = torch.where(const["faded"], torch.exp(-3.0 * speed_r)[..., None], 1.0)
+    features = torch.cat(
+        (
+            propeller,
+            fins,
+            fins * saturated[..., :2],
+            hull.flatten(-2),
+            strip_flow.abs() * strip_flow,
+            restoring,
+            (nu_r[..., :, None] * nu_r[..., None, :]).flatten(-2),
+            nu_r * fade,
+            nu[..., 5:6] * flow_c[..., :2],
+        ),
+        -1,
+    )
+    nu_dot = small_matmul(features, const["force_map"])
+    # 11. actuator rates from the saturated states
+    actuator_rate = (command - saturated) / const["time_constants"]
+    return nu_dot, actuator_rate, saturated
+
+
+def _trig(eta: torch.Tensor, current: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Cosines and sines of ``(phi, theta, psi, beta_c - psi)``, ``[*B, 4]`` each."""
+    angles = torch.cat((eta[..., 3:], current[..., 1:2] - eta[..., 5:6]), -1)
+    return angles.cos(), angles.sin()
+
+
 def dynamics(
     eta: torch.Tensor,
     nu: torch.Tensor,
@@ -393,162 +572,39 @@ def dynamics(
     3.2887
     """
     p = DEFAULT_PARAMS if params is None else params
-    const = p.tensors(nu.dtype, nu.device)
-    phi, theta, psi = eta[..., 3], eta[..., 4], eta[..., 5]
-    u, v, w, rate_p, rate_q, rate_r = nu.unbind(-1)
-    speed_c, beta_c = current[..., 0], current[..., 1]
-
-    # 1-2. current in the body frame (yaw only) and relative velocity
-    u_c = speed_c * torch.cos(beta_c - psi)
-    v_c = speed_c * torch.sin(beta_c - psi)
-    # the vertical water velocity, if given, acts along body z (yaw-only resolution, as PVS)
-    w_r = w - current[..., 2] if current.shape[-1] == 3 else w
-    u_r, v_r = u - u_c, v - v_c
-    alpha = torch.atan2(w_r, u_r)
-    speed = torch.sqrt(u * u + v * v + w * w)
-    speed_r_sq = u_r * u_r + v_r * v_r + w_r * w_r
-    speed_r = torch.sqrt(speed_r_sq)
-
-    # 3-4. saturated actuators, propeller
-    rudder = saturate(actuators[..., 0], p.delta_max)
-    stern = saturate(actuators[..., 1], p.delta_max)
-    rpm = saturate(actuators[..., 2], p.n_max)
-    thrust, torque = propeller_forces(rpm, speed, p)
-
-    # 5. Coriolis C(nu_r) nu_r = [w x a; v x a + w x b] for M_RB, plus the reduced C_A
-    m, zg = p.mass, p.z_g
-    ix, iy, iz = p.inertia
-    _, a22, a33, a44, a55, a66 = p.added_mass
-    a_1 = m * (u_r + zg * rate_q)
-    a_2 = m * (v_r - zg * rate_p)
-    a_3 = m * w_r
-    b_1 = -m * zg * v_r + (ix + m * zg**2) * rate_p
-    b_2 = m * zg * u_r + (iy + m * zg**2) * rate_q
-    b_3 = iz * rate_r
-    cor_1 = rate_q * a_3 - rate_r * a_2
-    cor_2 = rate_r * a_1 - rate_p * a_3 - a33 * w_r * rate_p
-    cor_3 = rate_p * a_2 - rate_q * a_1 + a22 * v_r * rate_p
-    cor_4 = (
-        (v_r * a_3 - w_r * a_2)
-        + (rate_q * b_3 - rate_r * b_2)
-        + (a33 - a22) * v_r * w_r
-        + (a66 - a55) * rate_q * rate_r
-    )
-    cor_5 = (w_r * a_1 - u_r * a_3) + (rate_r * b_1 - rate_p * b_3) + (a44 - a66) * rate_p * rate_r
-    cor_6 = (u_r * a_2 - v_r * a_1) + (rate_p * b_2 - rate_q * b_1) + (a55 - a44) * rate_p * rate_q
-
-    # 6. linear damping on nu_r, surge and sway faded with the relative speed
-    d_1, d_2, d_3, d_4, d_5, d_6 = p.damping_base
-    fade = torch.exp(-3.0 * speed_r)
-
-    # 7. hull lift and drag (x-z plane) and cross-flow drag (sway, yaw)
-    area, cd0, cl_alpha, pi_e_ar = p.hull
-    c_lift = cl_alpha * alpha
-    c_drag = cd0 + c_lift * c_lift / pi_e_ar
-    half_rho_s_u2 = 0.5 * p.rho * speed_r_sq * area
-    f_drag, f_lift = half_rho_s_u2 * c_drag, half_rho_s_u2 * c_lift
-    cos_a, sin_a = torch.cos(alpha), torch.sin(alpha)
-    x_ld = -cos_a * f_drag + sin_a * f_lift
-    z_ld = -sin_a * f_drag - cos_a * f_lift
-    strips = const["strips"]
-    dx = p.length / (p.num_strips - 1)
-    cf_gain = 0.5 * p.rho * p.diameter * p.crossflow_cd * dx
-    flow = v_r.unsqueeze(-1) + strips * rate_r.unsqueeze(-1)
-    drag = flow.abs() * flow
-    y_cf = -cf_gain * drag.sum(-1)
-    n_cf = -cf_gain * (drag * strips).sum(-1)
-
-    # 8. restoring forces (W = B, r_bb = 0)
-    zg_w = zg * p.weight
-    cos_theta = torch.cos(theta)
-    g_4 = zg_w * cos_theta * torch.sin(phi)
-    g_5 = zg_w * torch.sin(theta)
-
-    # 9. fins, at the horizontal and vertical relative speeds
-    u_rh_sq = torch.sqrt(u_r * u_r + v_r * v_r) ** 2
-    u_rv_sq = torch.sqrt(u_r * u_r + w_r * w_r) ** 2
-    fin = 0.5 * p.rho * 2 * p.fin_area
-    y_r = -fin * p.cl_rudder * u_rh_sq * rudder
-    z_s = -fin * p.cl_stern * u_rv_sq * stern
-    x_r = y_r * rudder
-    x_s = z_s * stern
-    x_fin = -p.length / 2
-
-    # 10. generalised forces and accelerations
-    force = torch.stack(
-        (
-            (1 - p.thrust_deduction) * thrust + x_r + x_s + x_ld - cor_1 - d_1 * fade * u_r,
-            y_r + y_cf - cor_2 - d_2 * fade * v_r,
-            z_s + z_ld - cor_3 - d_3 * w_r,
-            torque / 10.0 - cor_4 - d_4 * rate_p - g_4,
-            -x_fin * z_s - cor_5 - d_5 * rate_q - g_5,
-            x_fin * y_r + n_cf - cor_6 - d_6 * rate_r,
-        ),
-        dim=-1,
-    )
-    nu_dot = force @ const["m_inv_t"]
-    zero = torch.zeros_like(u_c)
-    nu_dot = nu_dot + torch.stack((rate_r * v_c, -rate_r * u_c, zero, zero, zero, zero), -1)
-
-    # 11. actuator rates from the saturated states
-    saturated = torch.stack((rudder, stern, rpm), -1)
-    time_constants = torch.tensor((p.t_fin, p.t_fin, p.t_prop), dtype=nu.dtype, device=nu.device)
-    actuator_rate = (command - saturated) / time_constants
-    return nu_dot, actuator_rate, saturated
+    eta, nu, actuators, command, current = _same_batch(eta, nu, actuators, command, current)
+    cos, sin = _trig(eta, current)
+    return _features_and_rates(eta, nu, actuators, command, current, p, cos, sin)
 
 
 def rotation_matrix(angles: torch.Tensor) -> torch.Tensor:
-    r"""zyx Euler rotation :math:`R(\phi, \theta, \psi)` from body to NED, ``[*B, 3, 3]``.
+    r"""zyx Euler rotation :math:`R(\phi, \theta, \psi)` from body to NED, ``[*B, 3, 3]``
+    (:mod:`~torchrl_auv.physics.euler`).
 
     >>> rotation_matrix(torch.tensor([0.0, 0.0, math.pi / 2])).round(decimals=6) + 0.0
     tensor([[ 0., -1.,  0.],
             [ 1.,  0.,  0.],
             [ 0.,  0.,  1.]])
     """
-    c, s = torch.cos(angles), torch.sin(angles)
-    c_phi, c_th, c_psi = c.unbind(-1)
-    s_phi, s_th, s_psi = s.unbind(-1)
-    rows = (
-        (c_psi * c_th, -s_psi * c_phi + c_psi * s_th * s_phi, s_psi * s_phi + c_psi * c_phi * s_th),
-        (s_psi * c_th, c_psi * c_phi + s_phi * s_th * s_psi, -c_psi * s_phi + s_th * s_psi * c_phi),
-        (-s_th, c_th * s_phi, c_th * c_phi),
-    )
-    return torch.stack([torch.stack(row, -1) for row in rows], -2)
+    return euler_matrices(trig_factors(angles.cos(), angles.sin()), rotation_only=True)
+
+
+def _eta_dot(cos: torch.Tensor, sin: torch.Tensor, nu: torch.Tensor) -> torch.Tensor:
+    matrices = euler_matrices(trig_factors(cos, sin))  # R and T, [*B, 2, 3, 3]
+    return small_matmul(matrices, nu.unflatten(-1, (2, 3))[..., None]).flatten(-3)
 
 
 def kinematics(eta: torch.Tensor, nu: torch.Tensor) -> torch.Tensor:
-    r"""Euler-angle kinematics :math:`\dot\eta = [R(\Theta) v;\ T(\Theta)\omega]`, ``[*B, 6]``.
-
-    .. math::
-
-        T = \begin{bmatrix} 1 & s_\phi t_\theta & c_\phi t_\theta \\ 0 & c_\phi & -s_\phi \\
-            0 & s_\phi / c_\theta & c_\phi / c_\theta \end{bmatrix}
-
-    (singular at :math:`\theta = \pm 90°`; nothing guards against it, as in the source).
+    r"""Euler-angle kinematics :math:`\dot\eta = [R(\Theta) v;\ T(\Theta)\omega]`, ``[*B, 6]``
+    (:mod:`~torchrl_auv.physics.euler`; singular at :math:`\theta = \pm 90°`, unguarded as in
+    the source).
 
     >>> nu = torch.tensor([1.0, 0.0, 0.0, 0.0, 0.0, 0.1])
     >>> kinematics(torch.zeros(6), nu)
     tensor([1.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.1000])
     """
-    c, s = torch.cos(eta[..., 3:]), torch.sin(eta[..., 3:])
-    c_phi, c_th, c_psi = c.unbind(-1)
-    s_phi, s_th, s_psi = s.unbind(-1)
-    u, v, w, rate_p, rate_q, rate_r = nu.unbind(-1)
-    x_dot = (
-        c_psi * c_th * u
-        + (-s_psi * c_phi + c_psi * s_th * s_phi) * v
-        + (s_psi * s_phi + c_psi * c_phi * s_th) * w
-    )
-    y_dot = (
-        s_psi * c_th * u
-        + (c_psi * c_phi + s_phi * s_th * s_psi) * v
-        + (-c_psi * s_phi + s_th * s_psi * c_phi) * w
-    )
-    z_dot = -s_th * u + c_th * s_phi * v + c_th * c_phi * w
-    phi_dot = rate_p + s_phi * s_th / c_th * rate_q + c_phi * s_th / c_th * rate_r
-    theta_dot = c_phi * rate_q - s_phi * rate_r
-    psi_dot = s_phi / c_th * rate_q + c_phi / c_th * rate_r
-    return torch.stack((x_dot, y_dot, z_dot, phi_dot, theta_dot, psi_dot), -1)
+    eta, nu = _same_batch(eta, nu)
+    return _eta_dot(eta[..., 3:].cos(), eta[..., 3:].sin(), nu)
 
 
 def _check_inputs(tensors: dict[str, torch.Tensor], widths: dict[str, tuple[int, ...]], dt) -> None:
@@ -639,10 +695,15 @@ def step(
 
 def step_unchecked(eta, nu, actuators, command, current, dt, params=None):
     """:func:`step` without input checks (for compiled inner loops); same arguments."""
-    nu_dot, actuator_rate, saturated = dynamics(eta, nu, actuators, command, current, params)
+    p = DEFAULT_PARAMS if params is None else params
+    eta, nu, actuators, command, current = _same_batch(eta, nu, actuators, command, current)
+    cos, sin = _trig(eta, current)  # shared by the dynamics and the kinematics (both at eta_k)
+    nu_dot, actuator_rate, saturated = _features_and_rates(
+        eta, nu, actuators, command, current, p, cos, sin
+    )
     nu_next = nu + dt * nu_dot
     actuators_next = saturated + dt * actuator_rate
-    eta_next = eta + dt * kinematics(eta, nu_next)
+    eta_next = eta + dt * _eta_dot(cos[..., :3], sin[..., :3], nu_next)
     return eta_next, nu_next, actuators_next
 
 
@@ -667,6 +728,7 @@ def compiled_step(
     (``benchmarks/bench_physics.py``). Inputs are validated eagerly before the compiled call.
     """
     _check_step_inputs(eta, nu, actuators, command, current, dt)
+    (DEFAULT_PARAMS if params is None else params).tensors(eta.dtype, eta.device)  # not traced
     fn = _COMPILED.get("step")
     if fn is None:
         fn = _COMPILED["step"] = torch.compile(step_unchecked, fullgraph=True, dynamic=False)

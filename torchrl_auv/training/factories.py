@@ -73,6 +73,7 @@ def make_env(
     rate_model: str = "shannon",
     max_steps: int | None = None,
     device: str | torch.device = "cpu",
+    compile_physics: bool = False,
 ) -> DataCollectionEnv:
     """A batch of ``num_envs`` data-collection scenes on the ``("agents", ...)`` layout.
 
@@ -84,12 +85,15 @@ def make_env(
         rate_model: ``shannon`` or ``paper`` link rate.
         max_steps: decisions per episode (default the env's, 1000).
         device: where the env's tensors live.
+        compile_physics: run the 20 Hz physics through ``torch.compile`` (about a minute of
+            compilation on a fresh machine, seconds from the on-disk cache; then about 5x
+            faster at batch 1, see ``benchmarks/bench_speed.py``).
     """
     if num_envs < 1:
         raise ValueError(f"num_envs must be >= 1, got {num_envs}")
     return DataCollectionEnv(batch_size=[num_envs], sea_state=sea_state, controller=controller,
                              rate_model=rate_model, seed=seed, max_steps=max_steps,
-                             device=device)  # fmt: skip
+                             device=device, compile_physics=compile_physics)  # fmt: skip
 
 
 def _dims(env: DataCollectionEnv) -> tuple[int, int]:

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import csv
 import logging
+import resource
+import sys
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -42,6 +44,7 @@ __all__ = [
     "gradient_step",
     "log_metrics",
     "logger_from_config",
+    "peak_rss_mb",
     "prepare_resume",
     "progress_postfix",
     "sac_optimisers",
@@ -102,6 +105,7 @@ def env_from_config(cfg: DictConfig, *, history: int = 0):
     kwargs = dict(
         seed=cfg.seed, num_envs=cfg.env.num_envs, controller=cfg.env.controller,
         rate_model=cfg.env.rate_model, max_steps=cfg.env.max_steps, device=cfg.device,
+        compile_physics=bool(cfg.env.get("compile_physics", False)),
     )  # fmt: skip
     return _scene_env(cfg.env.sea_state, history, **kwargs)
 
@@ -198,6 +202,12 @@ def log_metrics(
             writer.writerows((step, key, value) for key, value in metrics.items())
 
 
+def peak_rss_mb() -> float:
+    """This process's peak resident memory so far (MB; Linux reports kB, macOS bytes)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / (1024 * 1024 if sys.platform == "darwin" else 1024)
+
+
 class RunTracker:
     """The bookkeeping around a recipe's loop: a tqdm bar (frames, cost, SDR, SSN, lambda,
     form), ``time/`` metrics, logging (and ``train_curve.csv``), a checkpoint every
@@ -238,13 +248,13 @@ class RunTracker:
 
     def finish(self, collector) -> dict[str, object]:
         """Shut the collector down, save the final checkpoint; returns the session's facts
-        (frames, wall time, training frames/s) for the summary."""
+        (frames, wall time, training frames/s, peak memory) for the summary."""
         collector.shutdown()
         self.bar.close()
         self.rotation.save(self.checkpoint, step=self.progress["frames"])
         return {"frames": self.progress["frames"],
                 "wall time this session (s)": time.perf_counter() - self.start,
-                "training frames/s": self.rate()}  # fmt: skip
+                "training frames/s": self.rate(), "peak RSS (MB)": peak_rss_mb()}  # fmt: skip
 
 
 def finish_run(
