@@ -73,17 +73,21 @@ def steady_rate(run_dir: Path) -> float:
     return (last - first) / (elapsed[last] - elapsed[first])
 
 
-def paper(frames: int) -> None:
-    """The paper preset's segment (module docstring)."""
+def paper(frames: int, proposer: str | None) -> None:
+    """The paper preset's segment (module docstring); ``proposer``: a pretrained
+    ``proposer.pt`` to reuse (else diffusion_lac's run builds its first stage, untimed)."""
     budget = 300_000
     rows, rates = [], {}
     with tempfile.TemporaryDirectory() as tmp:
         for recipe in ("diffusion_lac", "sac"):
             run_dir = Path(tmp, recipe)
             start = time.perf_counter()
-            _train(recipe, [f"run_dir={run_dir}", f"collector.total_frames={frames}",
-                            "eval.steps=5", "eval.num_envs=1", "logger.backend=",
-                            f"checkpoint.every_frames={frames}"])  # fmt: skip
+            overrides = [f"run_dir={run_dir}", f"collector.total_frames={frames}",
+                         "eval.steps=5", "eval.num_envs=1", "logger.backend=",
+                         f"checkpoint.every_frames={frames}"]  # fmt: skip
+            if proposer and recipe == "diffusion_lac":
+                overrides.append(f"proposer.path={proposer}")
+            _train(recipe, overrides)
             wall = time.perf_counter() - start
             rates[recipe] = steady_rate(run_dir)
             rows.append([recipe, frames, f"{wall:.0f}", _fact(run_dir, "training frames/s"),
@@ -102,12 +106,13 @@ def paper(frames: int) -> None:
 def _arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--paper", action="store_true", help="the paper preset's segment")
     parser.add_argument("--frames", type=int, default=20_000, help="--paper segment length")
+    parser.add_argument("--proposer", help="--paper: a pretrained proposer.pt to reuse")
 
 
 def main() -> None:
     args = setup(__doc__, add_arguments=_arguments)
     if args.paper:
-        paper(args.frames)
+        paper(args.frames, args.proposer)
         return
     frames = 600 if args.quick else 2000
     with tempfile.TemporaryDirectory() as tmp:

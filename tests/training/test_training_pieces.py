@@ -134,3 +134,29 @@ def test_evaluation_rows_repeat_on_the_same_seed_whatever_the_global_rng():
     assert rows[0] == rows[1]
     other = training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=6, steps=15)
     assert other[0]["cost_mean"] != rows[0][0]["cost_mean"]
+
+
+def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
+    """``env.compile_physics`` and ``proposer.compile`` (recipe keys) switch the compiled
+    paths on; without the keys both stay eager (nothing compiles here: no step is taken)."""
+    from omegaconf import OmegaConf
+
+    from torchrl_auv.modules import DiffusionProposer
+
+    env_cfg = {"sea_state": "ideal", "num_envs": 1, "controller": "pid", "rate_model": "shannon",
+               "max_steps": 10}  # fmt: skip
+    cfg = OmegaConf.create({"seed": 0, "device": "cpu", "env": env_cfg})
+    assert training.env_from_config(cfg).vehicles.compile is False
+    cfg.env.compile_physics = True
+    assert training.env_from_config(cfg).vehicles.compile is True
+
+    path = tmp_path / "proposer.pt"
+    DiffusionProposer(4, 3, num_candidates=2, horizon=2, num_inference_steps=2).save(path)
+    proposer_cfg = {"path": str(path), "demo_episodes": 1, "demo_steps": 1, "pretrain_steps": 1,
+                    "batch_size": 1, "lr": 1e-3, "num_candidates": 2, "horizon": 2, "history": 0,
+                    "num_inference_steps": 2, "sampler": "ddim", "hidden": 8,
+                    "demo_sea_state": "ideal"}  # fmt: skip
+    cfg.proposer = proposer_cfg
+    assert diffusion.proposer_from_config(tmp_path, cfg).compile is False
+    cfg.proposer.compile = True
+    assert diffusion.proposer_from_config(tmp_path, cfg).compile is True

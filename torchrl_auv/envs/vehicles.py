@@ -132,14 +132,16 @@ class VehicleStack:
         noise: onboard sensor noise.
         dt: physics step (s).
         decision_steps: physics steps per decision.
-        compile: run the physics steps through ``torch.compile``, ``unroll`` steps per
-            compiled call (one compilation per batch shape, sea state and controller: about
-            37 s on a 2-core CPU with ``unroll=5``, about 5 s from inductor's on-disk cache
-            afterwards; then 5x faster at batch 1, 3-4x at batch 256; see
-            ``benchmarks/bench_envs.py``).
+        compile: run the physics steps through ``torch.compile`` (inductor with its C++
+            wrapper), ``unroll`` steps per compiled call: one compilation per batch shape, sea
+            state and controller, about a minute on a 2-core CPU with ``unroll=5`` and about
+            8 s from inductor's on-disk cache afterwards (dynamo still traces); then about 3x
+            faster per decision at batch 1 and 2-3x at batch 256 (``benchmarks/bench_speed.py``).
+            Shapes are static: ``dynamic=True`` recompiled for every batch size anyway (80-160 s
+            each) and ran 3x slower at batch 256.
         unroll: physics steps per compiled call (a divisor of ``decision_steps``); larger
-            values cut per-call overhead but compile for longer (cold cache, measured at
-            batch 1: unroll 1 ~13 s, 5 ~37 s).
+            values cut per-call overhead but compile for longer (cold cache at batch 1 with
+            the C++ wrapper: unroll 1 ~23 s, 2 ~43 s, 5 ~64-78 s).
 
     Examples:
         >>> from torchrl_auv.control import make_controller
@@ -378,5 +380,9 @@ class VehicleStack:
 
     def _compiled_steps(self):
         if self._compiled is None:
-            self._compiled = torch.compile(self._steps, dynamic=False)
+            # cpp_wrapper: inductor's per-call buffer bookkeeping in C++ rather than Python
+            # (at batch 1 about 1.5 ms less per decision; a similar compile time)
+            self._compiled = torch.compile(
+                self._steps, dynamic=False, options={"cpp_wrapper": True}
+            )
         return self._compiled

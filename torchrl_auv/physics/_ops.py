@@ -14,8 +14,7 @@ def fusing(a: torch.Tensor) -> bool:
     """Whether a product with ``a`` on the left is being compiled for few rows (at most
     :data:`FUSE_ROWS`): there a library matmul's launch and buffers cost more than its flops,
     while a broadcast product and sum fuses into the kernel around it."""
-    rows = a.numel() // max(a.shape[-1], 1)
-    return torch.compiler.is_compiling() and rows <= FUSE_ROWS
+    return torch.compiler.is_compiling() and a.numel() // max(a.shape[-1], 1) <= FUSE_ROWS
 
 
 def small_matmul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -29,6 +28,6 @@ def small_matmul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     >>> torch.allclose(small_matmul(a, b), a @ b)
     True
     """
-    if a.ndim >= 2 and b.ndim >= 2 and fusing(a):
+    if torch.compiler.is_compiling() and a.ndim >= 2 and b.ndim >= 2 and fusing(a):
         return (a.unsqueeze(-1) * b.unsqueeze(-3)).sum(-2)
     return a @ b

@@ -133,15 +133,18 @@ def prepare_proposer(
 
 
 def proposer_from_config(run_dir: str | Path, cfg) -> DiffusionProposer:
-    """:func:`prepare_proposer` with a recipe's ``proposer`` group (and ``env``, ``seed``)."""
+    """:func:`prepare_proposer` with a recipe's ``proposer`` group (and ``env``, ``seed``);
+    ``proposer.compile`` (default false) compiles its denoising step for acting."""
     p = cfg.proposer
-    return prepare_proposer(
+    proposer = prepare_proposer(
         run_dir, path=p.path, episodes=p.demo_episodes, max_steps=p.demo_steps,
         steps=p.pretrain_steps, batch_size=p.batch_size, lr=p.lr, num_candidates=p.num_candidates,
         horizon=p.horizon, history=p.history, num_inference_steps=p.num_inference_steps,
         sampler=p.sampler, hidden=p.hidden, sea_state=p.demo_sea_state,
         controller=cfg.env.controller, rate_model=cfg.env.rate_model, seed=cfg.seed,
     )  # fmt: skip
+    proposer.compile = bool(p.get("compile", False))
+    return proposer
 
 
 def evaluation_policies(name: str, policy, actor, proposer: DiffusionProposer) -> dict:
