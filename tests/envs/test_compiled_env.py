@@ -9,9 +9,9 @@ from torchrl_auv.envs import DataCollectionEnv, ScriptedExpert
 @pytest.mark.slow
 def test_compiled_env_matches_eager_over_1000_decisions():
     """The expert in closed loop, es (waves, current, Kalman filter), 2 scenes: the agents see
-    the same observations and costs to 1e-4 and pick the same targets all episode; positions
-    agree to float32 rounding of 100 m coordinates (measured: 1.5e-5 on observations, 2.3e-5
-    on costs, 3.1e-4 m on positions)."""
+    the same observations and costs to 1e-4 and pick the same targets all episode; the true
+    positions, float32 coordinates of 0-200 m integrated over 20,000 physics steps, agree to
+    1 mm (measured: 1.5e-5 on observations, 2.3e-5 on costs, 3.0e-4 m on positions)."""
     runs = []
     for compiled in (False, True):
         env = DataCollectionEnv(batch_size=[2], sea_state="es", seed=0, compile_physics=compiled)
@@ -23,4 +23,4 @@ def test_compiled_env_matches_eager_over_1000_decisions():
     assert torch.equal(compiled["next", "task", "auvs", "target"],
                        eager["next", "task", "auvs", "target"])  # fmt: skip
     torch.testing.assert_close(compiled["next", "truth", "eta"], eager["next", "truth", "eta"],
-                               rtol=1e-5, atol=1e-4)  # fmt: skip
+                               rtol=0, atol=1e-3)  # fmt: skip

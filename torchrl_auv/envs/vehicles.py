@@ -135,8 +135,8 @@ class VehicleStack:
         compile: run the physics steps through ``torch.compile`` (inductor with its C++
             wrapper), ``unroll`` steps per compiled call: one compilation per batch shape, sea
             state and controller, about a minute on a 2-core CPU with ``unroll=5`` and about
-            8 s from inductor's on-disk cache afterwards (dynamo still traces); then about 3x
-            faster per decision at batch 1 and 2-3x at batch 256 (``benchmarks/bench_speed.py``).
+            8 s from inductor's on-disk cache afterwards (dynamo still traces); then 3-5x
+            faster per decision at batch 1 and 2-3.5x at batch 256 (``benchmarks/bench_speed.py``).
             Shapes are static: ``dynamic=True`` recompiled for every batch size anyway (80-160 s
             each) and ran 3x slower at batch 256.
         unroll: physics steps per compiled call (a divisor of ``decision_steps``); larger
