@@ -309,7 +309,7 @@ _DERIVED = (
 DEFAULT_PARAMS = Remus100Params()
 
 
-def saturate(value: torch.Tensor, limit: float) -> torch.Tensor:
+def saturate(value: torch.Tensor, limit: float | torch.Tensor) -> torch.Tensor:
     r"""Saturate a stored actuator state (spec Sec. 5).
 
     .. math:: \bar x = \operatorname{sign}(x)\,x_{max} \text{ if } |x| \ge x_{max}, \text{ else } x
@@ -429,12 +429,13 @@ def _force_map(p: Remus100Params) -> torch.Tensor:
             row["XYZKMN".index(name)] = value
         rows.append(row)
 
-    # propeller, from n|n| and U max(n, 0) in rpm: n_s = n / 60 (rev/s)
-    d4, d5 = p.rho * p.prop_diameter**4 / 3600.0, p.rho * p.prop_diameter**5 / 3600.0
-    advance = 60.0 * p.wake_fraction_factor / p.prop_diameter / p.j_max
-    add(X=(1 - p.thrust_deduction) * d4 * p.kt_0, K=d5 * p.kq_0 / 10.0)
-    add(X=(1 - p.thrust_deduction) * d4 * (p.kt_max - p.kt_0) * advance,
-        K=d5 * (p.kq_max - p.kq_0) * advance / 10.0)  # fmt: skip
+    # propeller, per n|n| and per U max(n, 0) (rpm): read off propeller_forces, which is
+    # c0 n|n| + c1 U |n| for n > 0 (at n = 1 rpm: c0 from U = 0, c1 from U = 1 m/s)
+    n, speed = torch.ones(2, dtype=torch.float64), torch.tensor([0.0, 1.0], dtype=torch.float64)
+    thrust, torque = propeller_forces(n, speed, p)
+    add(X=(1 - p.thrust_deduction) * thrust[0].item(), K=torque[0].item() / 10.0)
+    add(X=(1 - p.thrust_deduction) * (thrust[1] - thrust[0]).item(),
+        K=(torque[1] - torque[0]).item() / 10.0)  # fmt: skip
     fin = 0.5 * p.rho * 2 * p.fin_area
     y_r, z_s, x_fin = -fin * p.cl_rudder, -fin * p.cl_stern, -p.length / 2
     add(Y=y_r, N=x_fin * y_r)
@@ -496,9 +497,7 @@ def _features_and_rates(eta, nu, actuators, command, current, p, cos, sin):
     fin_speed_sq = u_r_sq + speeds_sq[..., 1, 1:]  # U_rh^2, U_rv^2
     alpha = torch.atan2(nu_r[..., 2:3], nu_r[..., :1])
     # 3-4. saturated actuators, propeller
-    saturated = torch.where(
-        actuators.abs() >= const["limits"], actuators.sign() * const["limits"], actuators
-    )
+    saturated = saturate(actuators, const["limits"])
     rpm = saturated[..., 2:]  # (rpm -> rev/s in the force map)
     propeller = torch.cat((rpm * rpm.abs(), speed[..., None] * rpm.clamp_min(0.0)), -1)
     # 9. fins; 7. hull lift and drag; cross-flow per strip; 8. restoring
