@@ -8,7 +8,7 @@ collection and training are timed), a tiny evaluation. The rate is the recipe's 
 "training frames/s" from its ``summary.md`` (collection and updates together, excluding start-up
 and evaluation). Issue [10/13]'s target: diffusion_lac / sac >= 0.5.
 
-``--paper`` times the paper preset instead (each recipe's ``config.yaml``: ``ves``, 4 scenes,
+``--paper`` times the paper preset instead (each recipe's ``paper.yaml``: ``ves``, 8 scenes,
 compiled physics, 250 updates per 1000 frames of batch 64, networks 256x256; diffusion_lac with
 K = 5 candidates of 50 DDPM steps) on a segment of ``--frames`` frames (default 20,000) of
 diffusion_lac and sac, and extrapolates diffusion_lac to the paper's budget (300 episodes x 1000

@@ -93,3 +93,27 @@ def test_layer_imports_only_layers_below(layer):
                 assert parts[1] in allowed, f"{path.name} imports {name}: not below {layer}"
             if layer in PLAIN_TORCH_LAYERS:
                 assert parts[0] != "torchrl", f"{path.name} imports {name} in a plain-torch layer"
+
+
+def test_the_library_imports_and_collects_without_the_ray_extra():
+    import subprocess
+    import sys
+
+    code = """
+import sys
+sys.modules["ray"] = None  # as if the .[ray] extra were not installed
+import torchrl_auv, torchrl_auv.training as t
+from functools import partial
+env = partial(t.make_env, "ideal", num_envs=1, max_steps=5)
+collector = t.make_collector(env, None, seed=0, frames_per_batch=5, total_frames=5)
+print(sum(d.numel() for d in collector))
+try:
+    t.check_ray_backend()
+except ImportError as error:
+    print(error)
+"""
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=300)  # fmt: skip
+    assert result.returncode == 0, result.stderr[-2000:]
+    frames, message = result.stdout.strip().splitlines()[-2:]
+    assert frames == "5" and "collector.backend='ray' needs Ray" in message

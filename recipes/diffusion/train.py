@@ -20,7 +20,7 @@ from torchrl_auv import training
 from torchrl_auv.training import diffusion
 
 
-@hydra.main(config_path=".", config_name="config", version_base="1.3")
+@hydra.main(config_path=".", config_name="paper", version_base="1.3")
 def main(cfg: DictConfig) -> None:
     run_dir = training.start_run(cfg)  # checks every value before any work
 
@@ -33,10 +33,8 @@ def main(cfg: DictConfig) -> None:
     progress = {"frames": 0}
     checkpoint, rotation, remaining = training.prepare_resume(cfg, run_dir, {}, progress)
     logger = training.logger_from_config(cfg, run_dir)
-    collector = training.make_collector(
-        env, policy, frames_per_batch=cfg.collector.frames_per_batch,
-        total_frames=max(remaining, 1), device=cfg.device,
-    )  # fmt: skip
+    collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
+                                               total_frames=max(remaining, 1))  # fmt: skip
     tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation)
     for data in collector if remaining > 0 else ():
         progress["frames"] += data.numel()

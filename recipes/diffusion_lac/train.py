@@ -37,14 +37,16 @@ LOGGED_LOSS_KEYS = ("loss_actor", "loss_lyapunov", "lambda", "beta", "violation_
 def make_advisor(cfg: DictConfig):
     if cfg.backend == "rules":
         return advisors.RuleBasedAdvisor()
+    if cfg.backend == "fixed":  # the form and weight stay as configured (alpha/form studies)
+        return advisors.FixedAdvisor()
     if cfg.backend == "openai":
         return advisors.OpenAICompatibleAdvisor(
             cfg.base_url, cfg.model, api_key_env=cfg.api_key_env
         )
-    raise ValueError(f"advisor.backend must be 'rules' or 'openai', got {cfg.backend!r}")
+    raise ValueError(f"advisor.backend must be 'rules', 'fixed' or 'openai', got {cfg.backend!r}")
 
 
-@hydra.main(config_path=".", config_name="config", version_base="1.3")
+@hydra.main(config_path=".", config_name="paper", version_base="1.3")
 def main(cfg: DictConfig) -> None:
     run_dir = training.start_run(cfg)  # checks every value before any work
     advisor = make_advisor(cfg.advisor)
@@ -78,10 +80,8 @@ def main(cfg: DictConfig) -> None:
                                                               buffer)  # fmt: skip
     selector.spec = loss.spec
 
-    collector = training.make_collector(
-        env, policy, frames_per_batch=cfg.collector.frames_per_batch,
-        total_frames=max(remaining, 1), device=cfg.device,
-    )  # fmt: skip
+    collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
+                                               total_frames=max(remaining, 1))  # fmt: skip
     tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation)
     window, outputs = [], []
     for data in collector if remaining > 0 else ():
@@ -100,6 +100,7 @@ def main(cfg: DictConfig) -> None:
         )  # fmt: skip
         trigger.step(progress["frames"], feedback, loss)
         selector.spec = loss.spec
+        collector.update_policy_weights_()  # workers: new weights and Lyapunov form
         metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS}
         metrics["train/form_index"] = advisors.FORM_ORDER.index(loss.spec.form)
         tracker.step(data, metrics, loss.spec)

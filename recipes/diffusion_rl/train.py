@@ -26,7 +26,7 @@ from torchrl_auv.training import diffusion
 LOGGED_LOSS_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy")
 
 
-@hydra.main(config_path=".", config_name="config", version_base="1.3")
+@hydra.main(config_path=".", config_name="paper", version_base="1.3")
 def main(cfg: DictConfig) -> None:
     run_dir = training.start_run(cfg)  # checks every value before any work
 
@@ -54,10 +54,8 @@ def main(cfg: DictConfig) -> None:
     logger = training.logger_from_config(cfg, run_dir)
 
     # 3. collect with the policy, train from the buffer
-    collector = training.make_collector(
-        env, policy, frames_per_batch=cfg.collector.frames_per_batch,
-        total_frames=max(remaining, 1), device=cfg.device,
-    )  # fmt: skip
+    collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
+                                               total_frames=max(remaining, 1))  # fmt: skip
     tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation)
     for data in collector if remaining > 0 else ():
         buffer.extend(training.select_for_replay(data))
@@ -66,6 +64,7 @@ def main(cfg: DictConfig) -> None:
             out = training.gradient_step(loss, optimisers, target_updater,
                                          buffer.sample().to(cfg.device))  # fmt: skip
             progress["updates"] += 1
+        collector.update_policy_weights_()  # worker processes / Ray act with the new weights
         metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS}
         tracker.step(data, metrics)
     facts = tracker.finish(collector)

@@ -23,7 +23,7 @@ log = logging.getLogger(__name__)
 LOGGED_LOSS_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy")
 
 
-@hydra.main(config_path=".", config_name="config", version_base="1.3")
+@hydra.main(config_path=".", config_name="paper", version_base="1.3")
 def main(cfg: DictConfig) -> None:
     run_dir = training.start_run(cfg)  # checks every value before any work
 
@@ -46,10 +46,8 @@ def main(cfg: DictConfig) -> None:
 
     # collector: the frames still to go
     random_frames = max(0, cfg.collector.init_random_frames - progress["frames"])
-    collector = training.make_collector(env, actor, frames_per_batch=cfg.collector.frames_per_batch,
-                                        total_frames=max(remaining, 1),
-                                        init_random_frames=random_frames,
-                                        device=cfg.device)  # fmt: skip
+    collector = training.collector_from_config(cfg, actor, env=env, total_frames=max(remaining, 1),
+                                               init_random_frames=random_frames)  # fmt: skip
 
     tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation)
     stored_bytes = None
@@ -65,6 +63,7 @@ def main(cfg: DictConfig) -> None:
                                              buffer.sample().to(cfg.device))  # fmt: skip
                 progress["updates"] += 1
             metrics.update({f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS})
+            collector.update_policy_weights_()  # worker processes / Ray act with the new weights
         tracker.step(data, metrics)
     facts = tracker.finish(collector)
 

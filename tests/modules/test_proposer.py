@@ -121,6 +121,21 @@ def test_checkpoint_round_trip(tmp_path):
         proposer.save(path)  # never overwrites
 
 
+def test_a_pickled_proposer_leaves_its_compiled_steps_behind():
+    # worker processes and Ray actors receive the policy pickled; compiled functions are not
+    # picklable, and each worker compiles its own
+    import pickle
+
+    proposer = DiffusionProposer(4, 2, num_inference_steps=2, compile=True)
+    proposer._compiled[0] = lambda x: x  # stands in for a torch.compile'd step
+    copy = pickle.loads(pickle.dumps(proposer))
+    assert copy._compiled == {} and copy.compile and proposer._compiled
+    state = torch.randn(3, 4)
+    a, _ = proposer.sample(state, generator=torch.Generator().manual_seed(0))
+    b, _ = copy.sample(state, generator=torch.Generator().manual_seed(0))
+    assert torch.equal(a, b)
+
+
 def _perturb(module, generator, scale=0.05):
     with torch.no_grad():
         for p in module.parameters():

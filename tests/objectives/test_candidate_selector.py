@@ -45,6 +45,19 @@ def test_lyapunov_mode_picks_the_argmin_of_l():
     assert td["selector", "index"].tolist() == [4, 0]
 
 
+def test_the_lyapunov_form_travels_with_the_weights_a_collector_copies():
+    # TorchRL's collectors copy TensorDict.from_module(policy) into their workers' copies
+    from tensordict import TensorDict as TD
+
+    learner = CandidateSelector(_critic(), mode="lyapunov")  # softplus: argmin a_0
+    worker = CandidateSelector(_critic(), mode="lyapunov")
+    assert worker(_data())["selector", "index"].tolist() == [2, 1]
+    learner.spec = LyapunovSpec(form="squared", alpha=0.3, prior="position", prior_weight=2.0)
+    TD.from_module(learner).to_module(worker)
+    assert worker.spec == learner.spec
+    assert worker(_data())["selector", "index"].tolist() == [4, 0]  # argmin a_0^2
+
+
 def test_the_actors_action_joins_as_one_more_candidate():
     data = _data()
     data["actor", "action"] = torch.tensor([[2.0, 0.0], [-3.0, 0.0]])

@@ -67,7 +67,7 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
 @pytest.mark.parametrize(
     ("override", "named"),
     [("env.sea_state=calm", "env.sea_state"), ("env.controller=lqr", "env.controller"),
-     ("env.rate_model=fast", "env.rate_model"), ("collector.backend=ray", "collector.backend"),
+     ("env.rate_model=fast", "env.rate_model"), ("collector.backend=slurm", "collector.backend"),
      ("collector.total_frames=0", "collector.total_frames")],
 )  # fmt: skip
 def test_an_unknown_value_fails_before_any_work_naming_it(tmp_path, override, named):

@@ -17,9 +17,11 @@ from torchrl_auv.training import diffusion
     [({"env": {"sea_state": "calm"}}, "env.sea_state"),
      ({"env": {"controller": "lqr"}}, "env.controller"),
      ({"env": {"rate_model": "fast"}}, "env.rate_model"),
-     ({"collector": {"backend": "ray"}}, "collector.backend"),
+     ({"collector": {"backend": "slurm"}}, "collector.backend"),
      ({"collector": {"total_frames": 0}}, "collector.total_frames"),
-     ({"collector": {"num_workers": 2}}, "collector.num_workers"),
+     ({"collector": {"num_workers": 0}}, "collector.num_workers"),
+     ({"advisor": {"backend": "oracle"}}, "advisor.backend"),
+     ({"advisor": {"form": "cubic"}}, "advisor.form"),
      ({"replay_buffer": {"storage": "disk"}}, "replay_buffer.storage"),
      ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states")],
 )  # fmt: skip
@@ -30,8 +32,8 @@ def test_check_choices_names_the_key(cfg, named):
 
 def test_check_choices_accepts_the_recipe_defaults():
     training.check_choices({"env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
-                            "collector": {"total_frames": 10, "num_workers": 1,
-                                          "backend": "single"}, "device": "cpu"})  # fmt: skip
+                            "collector": {"total_frames": 10, "num_workers": 2,
+                                          "backend": "local"}, "device": "cpu"})  # fmt: skip
 
 
 def test_the_replay_buffer_stores_only_what_the_losses_read():

@@ -10,7 +10,13 @@ only through ``spec`` / ``set_lyapunov_spec`` and never executes text it receive
 
 from __future__ import annotations
 
-from torchrl_auv.advisor.decision import ALPHA_RANGE, Advisor, AdvisorDecision, validate_answer
+from torchrl_auv.advisor.decision import (
+    ALPHA_RANGE,
+    Advisor,
+    AdvisorDecision,
+    FixedAdvisor,
+    validate_answer,
+)
 from torchrl_auv.advisor.feedback import TrainingFeedback, feedback_from_training
 from torchrl_auv.advisor.openai_compatible import STRATEGIES, OpenAICompatibleAdvisor
 from torchrl_auv.advisor.prompt import DECISION_SCHEMA, build_messages, json_from_text
@@ -26,6 +32,7 @@ __all__ = [
     "Advisor",
     "AdvisorDecision",
     "AdvisorTrigger",
+    "FixedAdvisor",
     "LyapunovSpec",
     "OpenAICompatibleAdvisor",
     "RuleBasedAdvisor",

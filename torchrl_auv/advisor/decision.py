@@ -82,6 +82,21 @@ class Advisor(Protocol):
     ) -> AdvisorDecision: ...
 
 
+class FixedAdvisor:
+    """An advisor that never changes the spec: the Lyapunov form and weight stay as the loss
+    was built (the alpha and form studies, paper Fig. 10-11). Consultations are still logged.
+
+    Examples:
+        >>> FixedAdvisor().propose("any task", None, LyapunovSpec(form="log")).form
+        'log'
+    """
+
+    def propose(
+        self, task: str, feedback: TrainingFeedback | None, current: LyapunovSpec
+    ) -> AdvisorDecision:
+        return AdvisorDecision.keep(current, "fixed", "the spec is fixed for this run")
+
+
 def validate_answer(
     answer: Any, current: LyapunovSpec, source: str, raw: str = ""
 ) -> AdvisorDecision:

@@ -151,6 +151,13 @@ class DiffusionProposer(TensorDictModuleBase):
         if self.action_key is not None:
             self.out_keys.append(self.action_key)
 
+    def __getstate__(self) -> dict:
+        """Pickled without its compiled denoising steps (a worker process or Ray actor
+        compiles its own on first use)."""
+        state = super().__getstate__()
+        state["_compiled"] = {}
+        return state
+
     # -- construction from an env ---------------------------------------------------------
     @classmethod
     def for_env(

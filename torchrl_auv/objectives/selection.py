@@ -13,15 +13,35 @@ recoverable.
 
 from __future__ import annotations
 
+import dataclasses
+
 import torch
 from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
 from tensordict.nn import TensorDictModuleBase
 
-from torchrl_auv.objectives.lyapunov_forms import LyapunovSpec, lyapunov_value
+from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
 
 __all__ = ["SELECTION_MODES", "CandidateSelector"]
 
 SELECTION_MODES = ("q", "lyapunov")
+
+
+_FORM_NAMES, _PRIOR_NAMES = sorted(FORMS), sorted(PRIORS)
+
+
+def _encode(spec: LyapunovSpec) -> torch.Tensor:
+    """``[form index, prior index (-1: none), alpha, prior weight]`` (float64)."""
+    prior = -1 if spec.prior is None else _PRIOR_NAMES.index(spec.prior)
+    return torch.tensor([_FORM_NAMES.index(spec.form), prior, spec.alpha, spec.prior_weight],
+                        dtype=torch.float64)  # fmt: skip
+
+
+def _decode(code: torch.Tensor, like: LyapunovSpec) -> LyapunovSpec:
+    """The spec of ``code`` (:func:`_encode`), the other fields (prior indices) from ``like``."""
+    form, prior, alpha, weight = code.tolist()
+    return dataclasses.replace(like, form=_FORM_NAMES[int(form)], alpha=alpha,
+                               prior=None if prior < 0 else _PRIOR_NAMES[int(prior)],
+                               prior_weight=weight)  # fmt: skip
 
 
 class CandidateSelector(TensorDictModuleBase):
@@ -89,6 +109,9 @@ class CandidateSelector(TensorDictModuleBase):
         if not 0 <= epsilon <= 1:
             raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
         self.critic = critic
+        # the spec's form, prior and weights as a buffer: it travels with the weights that
+        # TorchRL's collectors copy to worker processes and Ray actors
+        self.register_buffer("spec_code", torch.zeros(4, dtype=torch.float64))
         self.mode, self.spec = mode, spec or LyapunovSpec()
         self.exploration, self.temperature, self.epsilon = exploration, temperature, epsilon
         self.include_actor_action = include_actor_action
@@ -108,6 +131,32 @@ class CandidateSelector(TensorDictModuleBase):
             (*self.selector_key, k) for k in ("index", "scores", "ranking")
         ]
 
+    @property
+    def spec(self) -> LyapunovSpec:
+        """The Lyapunov form (mode ``"lyapunov"``). Its form, prior, alpha and prior weight are
+        mirrored in the buffer ``spec_code``; a copy whose buffer was overwritten (weights
+        loaded, or synced by a collector) follows the buffer.
+
+        Examples:
+            >>> from torchrl.modules import MLP, ValueOperator
+            >>> critic = ValueOperator(MLP(in_features=3, out_features=1, num_cells=[4]),
+            ...                        in_keys=["observation", "action"])
+            >>> a, b = CandidateSelector(critic, mode="lyapunov"), CandidateSelector(critic)
+            >>> a.spec = LyapunovSpec(form="squared", alpha=0.25)
+            >>> _ = b.load_state_dict(a.state_dict())
+            >>> b.spec.form, b.spec.alpha
+            ('squared', 0.25)
+        """
+        if not torch.equal(self.spec_code, _encode(self._spec)):
+            self._spec = _decode(self.spec_code, self._spec)
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: LyapunovSpec) -> None:
+        self._spec = value
+        with torch.no_grad():
+            self.spec_code.copy_(_encode(value))
+
     def scores(self, observation: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """Scores ``[*B, K]`` (higher is better) of first actions ``[*B, K, A]``."""
         k = actions.shape[-2]
@@ -123,7 +172,8 @@ class CandidateSelector(TensorDictModuleBase):
             raise self._missing_critic_output(out)
         if self.mode == "q":
             return raw[..., 0]
-        return -lyapunov_value(raw, self.spec, obs if self.spec.prior else None)[..., 0]
+        spec = self.spec
+        return -lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
 
     def _missing_critic_output(self, out: TensorDictBase) -> KeyError:
         """The error for a critic that did not write ``critic_out_key``: names what it wrote."""

@@ -12,7 +12,13 @@ from torchrl_auv.training.checkpointing import (
     make_checkpoint,
     resume_latest,
 )
-from torchrl_auv.training.config import COLLECTOR_BACKENDS, check_choices
+from torchrl_auv.training.collectors import (
+    COLLECTOR_BACKENDS,
+    check_ray_address,
+    check_ray_backend,
+    make_collector,
+)
+from torchrl_auv.training.config import check_choices, check_config
 from torchrl_auv.training.evaluation import (
     POLICIES,
     episode_stats,
@@ -25,7 +31,6 @@ from torchrl_auv.training.factories import (
     REPLAY_KEYS,
     bytes_per_frame,
     make_actor,
-    make_collector,
     make_env,
     make_logger,
     make_q_critic,
@@ -37,6 +42,7 @@ from torchrl_auv.training.run import (
     RunTracker,
     batch_metrics,
     buffer_from_config,
+    collector_from_config,
     env_from_config,
     finish_run,
     gradient_step,
@@ -60,6 +66,10 @@ __all__ = [
     "buffer_from_config",
     "bytes_per_frame",
     "check_choices",
+    "check_config",
+    "check_ray_address",
+    "check_ray_backend",
+    "collector_from_config",
     "env_from_config",
     "episode_stats",
     "evaluate",

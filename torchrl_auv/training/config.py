@@ -12,13 +12,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from torchrl_auv.control import available_controllers
+from torchrl_auv.objectives.lyapunov_forms import FORMS
 from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
+from torchrl_auv.training.collectors import COLLECTOR_BACKENDS, check_ray_backend
 
-__all__ = ["COLLECTOR_BACKENDS", "check_choices"]
+__all__ = ["check_choices", "check_config"]
 
-#: Collector backends a recipe accepts (more arrive with the scale-out recipes).
-COLLECTOR_BACKENDS = ("single",)
 POSITIVE_INTEGERS = (
     "collector.total_frames",
     "collector.frames_per_batch",
@@ -36,6 +36,8 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "env.rate_model": RATE_MODELS,
         "collector.backend": COLLECTOR_BACKENDS,
         "replay_buffer.storage": ("memory", "memmap"),
+        "advisor.backend": ("rules", "fixed", "openai"),
+        "advisor.form": tuple(sorted(FORMS)),
         "device": ("cpu", "cuda"),
     }
 
@@ -64,13 +66,17 @@ def check_choices(cfg: Mapping) -> None:
         value = _get(cfg, key)
         if value is not None and (not isinstance(value, int) or value < 1):
             raise ValueError(f"{key} must be an integer >= 1, got {value!r}")
-    workers = _get(cfg, "collector.num_workers")
-    if workers not in (None, 1):
-        raise ValueError(
-            f"collector.num_workers must be 1 with the 'single' backend, got {workers}"
-        )
     if _get(cfg, "device") == "cuda":
         import torch
 
         if not torch.cuda.is_available():
             raise ValueError("device is 'cuda' but torch sees no CUDA device; use device=cpu")
+
+
+def check_config(cfg: Mapping) -> None:
+    """:func:`check_choices`, and with ``collector.backend`` ``"ray"`` that Ray is installed
+    and ``collector.ray_address`` (else ``RAY_ADDRESS``) answers: what a recipe checks before
+    any work, and a sweep before its first job."""
+    check_choices(cfg)
+    if _get(cfg, "collector.backend") == "ray":
+        check_ray_backend(_get(cfg, "collector.ray_address"))

@@ -1,4 +1,4 @@
-"""Factories the training recipes share: env, actor, critic, SAC loss, collector, replay buffer.
+"""Factories the training recipes share: env, actor, critic, SAC loss, replay buffer, logger.
 
 Each ``make_*`` takes plain values (a recipe passes its Hydra groups in), returns a TorchRL
 object and hides nothing a user would want to change: compose them into your own loop as
@@ -26,7 +26,6 @@ import torch
 from tensordict import TensorDictBase
 from tensordict.nn import NormalParamExtractor, TensorDictModule
 from torch import nn
-from torchrl.collectors import Collector
 from torchrl.data import LazyMemmapStorage, LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.modules import MLP, ProbabilisticActor, TanhNormal
 from torchrl.objectives import SACLoss, SoftUpdate
@@ -38,7 +37,6 @@ __all__ = [
     "ObsActionMLP",
     "bytes_per_frame",
     "make_actor",
-    "make_collector",
     "make_env",
     "make_logger",
     "make_q_critic",
@@ -172,29 +170,6 @@ def make_sac_loss(
     return loss, SoftUpdate(loss, tau=tau)
 
 
-def make_collector(
-    env: DataCollectionEnv,
-    policy,
-    *,
-    frames_per_batch: int,
-    total_frames: int,
-    init_random_frames: int = 0,
-    device: str | torch.device = "cpu",
-) -> Collector:
-    """TorchRL's single-process ``Collector``. Frames are env steps of the batch (one scene
-    decision each, every AUV included); ``frames_per_batch`` must be a multiple of the
-    number of scenes."""
-    scenes = env.batch_size.numel()
-    if frames_per_batch < scenes or frames_per_batch % scenes:
-        raise ValueError(f"collector.frames_per_batch must be a positive multiple of the "
-                         f"{scenes} scenes, got {frames_per_batch}")  # fmt: skip
-    # our policies hold no recurrent state: nothing to append to the env (torchrl 0.14.1
-    # otherwise warns that an InitTracker is missing, for any policy)
-    return Collector(env, policy, frames_per_batch=frames_per_batch, total_frames=total_frames,
-                     init_random_frames=init_random_frames, device=device,
-                     auto_register_policy_transforms=False)  # fmt: skip
-
-
 def select_for_replay(data: TensorDictBase) -> TensorDictBase:
     """The frames of a collected batch with only :data:`REPLAY_KEYS`, flattened to ``[frames]``."""
     return data.select(*REPLAY_KEYS).reshape(-1)
@@ -231,9 +206,11 @@ def make_logger(
     project: str = "torchrl-auv",
     offline: bool = True,
     config: dict | None = None,
+    group: str | None = None,
 ):
     """A TorchRL logger writing under ``run_dir`` (wandb offline by default), or ``None`` when
-    ``backend`` is empty. ``config`` is stored with a wandb run."""
+    ``backend`` is empty. ``config`` is stored with a wandb run, ``group`` is its wandb group
+    (a sweep's runs share one)."""
     from torchrl.record.loggers import get_logger
 
     if not backend:
@@ -241,5 +218,6 @@ def make_logger(
     kwargs = {}
     if backend == "wandb":
         # TorchRL's WandbLogger writes under its log_dir (logger_name) already
-        kwargs["wandb_kwargs"] = {"offline": offline, "project": project, "config": config or {}}
+        kwargs["wandb_kwargs"] = {"offline": offline, "project": project, "config": config or {},
+                                  "group": group}  # fmt: skip
     return get_logger(backend, logger_name=str(run_dir), experiment_name=exp_name, **kwargs)

@@ -19,6 +19,7 @@ import resource
 import sys
 import time
 from collections.abc import Callable, Mapping
+from functools import partial
 from pathlib import Path
 
 import torch
@@ -28,7 +29,8 @@ from tensordict import TensorDictBase
 from torchrl.checkpoint import Checkpoint, CheckpointRotation
 
 from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
-from torchrl_auv.training.config import check_choices
+from torchrl_auv.training.collectors import make_collector
+from torchrl_auv.training.config import check_config
 from torchrl_auv.training.diffusion import make_history_env
 from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.factories import make_env, make_logger, make_replay_buffer
@@ -39,6 +41,7 @@ __all__ = [
     "RunTracker",
     "batch_metrics",
     "buffer_from_config",
+    "collector_from_config",
     "env_from_config",
     "finish_run",
     "gradient_step",
@@ -61,7 +64,7 @@ def start_run(cfg: DictConfig) -> Path:
     the run folder (``resume`` when set, else ``run_dir``). A ``run_dir`` that already holds
     checkpoints is refused without ``resume`` (its checkpoints would be overwritten), and a
     ``resume`` folder without checkpoints is refused too."""
-    check_choices(OmegaConf.to_container(cfg, resolve=True))
+    check_config(OmegaConf.to_container(cfg, resolve=True))
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     run_dir = Path(cfg.resume or cfg.run_dir)
@@ -99,15 +102,42 @@ def prepare_resume(
     return checkpoint, rotation, cfg.collector.total_frames - progress["frames"]
 
 
+def _env_factory(cfg: DictConfig, history: int) -> partial:
+    """A picklable factory of the training env of ``cfg.env``, called with ``seed=``."""
+    return partial(_scene_env, cfg.env.sea_state, history, num_envs=cfg.env.num_envs,
+                   controller=cfg.env.controller, rate_model=cfg.env.rate_model,
+                   max_steps=cfg.env.max_steps, device=cfg.device,
+                   compile_physics=bool(cfg.env.get("compile_physics", False)))  # fmt: skip
+
+
 def env_from_config(cfg: DictConfig, *, history: int = 0):
     """The training env of ``cfg.env`` (seed ``cfg.seed``, ``cfg.device``), with a
     ``history``-long state-action history when > 0 (the diffusion recipes)."""
-    kwargs = dict(
-        seed=cfg.seed, num_envs=cfg.env.num_envs, controller=cfg.env.controller,
-        rate_model=cfg.env.rate_model, max_steps=cfg.env.max_steps, device=cfg.device,
-        compile_physics=bool(cfg.env.get("compile_physics", False)),
+    return _env_factory(cfg, history)(seed=cfg.seed)
+
+
+def collector_from_config(
+    cfg: DictConfig,
+    policy,
+    *,
+    env=None,
+    history: int = 0,
+    total_frames: int | None = None,
+    init_random_frames: int = 0,
+):
+    """The collector of ``cfg.collector`` (:func:`~torchrl_auv.training.make_collector`):
+    ``env`` itself with one local worker, else fresh envs of ``cfg.env`` in every worker
+    (worker ``i`` seeded ``cfg.seed + i``). ``total_frames`` defaults to
+    ``cfg.collector.total_frames``; ``init_random_frames`` are the random frames still to go."""
+    col = cfg.collector
+    single = col.backend == "local" and col.num_workers == 1
+    create = env if single and env is not None else _env_factory(cfg, history)
+    return make_collector(
+        create, policy, seed=cfg.seed, frames_per_batch=col.frames_per_batch,
+        total_frames=col.total_frames if total_frames is None else total_frames,
+        init_random_frames=init_random_frames, device=cfg.device,
+        num_workers=col.num_workers, backend=col.backend, ray_address=col.get("ray_address"),
     )  # fmt: skip
-    return _scene_env(cfg.env.sea_state, history, **kwargs)
 
 
 def _scene_env(sea_state: str, history: int, **kwargs):
@@ -126,11 +156,11 @@ def buffer_from_config(cfg: DictConfig, run_dir: Path):
 
 def logger_from_config(cfg: DictConfig, run_dir: Path):
     """The logger of ``cfg.logger`` (``None`` when its backend is empty); a wandb run stores
-    the resolved config."""
+    the resolved config and joins the group ``logger.group`` (a sweep's name)."""
     lg = cfg.logger
     config = OmegaConf.to_container(cfg, resolve=True)
     return make_logger(lg.backend, run_dir, exp_name=lg.exp_name, project=lg.project,
-                       offline=lg.offline, config=config)  # fmt: skip
+                       offline=lg.offline, config=config, group=lg.get("group"))  # fmt: skip
 
 
 def sac_optimisers(loss, optim: DictConfig) -> dict[str, torch.optim.Optimizer]:
