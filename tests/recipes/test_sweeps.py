@@ -105,6 +105,13 @@ def test_the_wandb_sweep_launches_the_hydra_sweeps_jobs(name):
     assert folders == hydra_folders
 
 
+def test_the_ray_cluster_launcher_connects_and_leaves_the_object_store_to_the_cluster():
+    pytest.importorskip("hydra_plugins.hydra_ray_launcher")
+    launcher = _compose(["+sweeps=tiny", "hydra/launcher=ray_cluster"], hydra=True).hydra.launcher
+    assert launcher._target_.endswith("RayLauncher")
+    assert launcher.ray.init.address == "auto" and launcher.ray.init.object_store_memory is None
+
+
 def _env(tmp_path: Path) -> dict:
     return {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline",
             "RAY_ADDRESS": "", "HOME": str(tmp_path / "home")}  # fmt: skip
