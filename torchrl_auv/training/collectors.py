@@ -65,10 +65,12 @@ def _merge_workers(data: TensorDictBase) -> TensorDictBase:
     return data.reshape(-1, data.shape[-1]) if data.ndim > 2 else data
 
 
-def check_ray_address(address: str, *, timeout_s: float = 5.0) -> None:
-    """Raise ``ValueError`` naming ``address`` when a ``host:port`` (or ``ray://host:port``)
-    Ray address does not accept a TCP connection within ``timeout_s``; ``"auto"`` and
-    ``"local"`` are left to Ray.
+def check_ray_address(
+    address: str, *, key: str = "collector.ray_address", timeout_s: float = 5.0
+) -> None:
+    """Raise ``ValueError`` naming ``key`` and ``address`` when a ``host:port`` (or
+    ``ray://host:port``) Ray address does not accept a TCP connection within ``timeout_s``;
+    ``"auto"`` and ``"local"`` are left to Ray.
 
     Examples:
         >>> check_ray_address("127.0.0.1:1")
@@ -81,12 +83,12 @@ def check_ray_address(address: str, *, timeout_s: float = 5.0) -> None:
     hostport = address.split("://", 1)[-1]
     host, sep, port = hostport.rpartition(":")
     if not sep or not port.isdigit() or not host:
-        raise ValueError(f"collector.ray_address must be 'auto', 'local', 'host:port' or "
+        raise ValueError(f"{key} must be 'auto', 'local', 'host:port' or "
                          f"'ray://host:port', got {address!r}")  # fmt: skip
     try:
         socket.create_connection((host, int(port)), timeout=timeout_s).close()
     except OSError as error:
-        raise ValueError(f"collector.ray_address {address!r} is unreachable ({error}); "
+        raise ValueError(f"{key} {address!r} is unreachable ({error}); "
                          f"start a cluster with `ray start --head` or fix the address"
                          ) from error  # fmt: skip
 

@@ -31,11 +31,9 @@ class CheckedSweeper(BasicSweeper):
         address = OmegaConf.select(launcher, "ray.init.address", default=None)
         if address:  # Hydra's Ray launcher connecting to a cluster
             try:
-                check_ray_address(address)
+                check_ray_address(address, key="hydra.launcher.ray.init.address")
             except ValueError as error:
-                message = str(error).replace("collector.ray_address",
-                                             "hydra.launcher.ray.init.address")  # fmt: skip
-                raise ConfigCompositionException(message) from error
+                raise ConfigCompositionException(str(error)) from error
         loader = self.hydra_context.config_loader
         for overrides in batch:
             job = loader.load_sweep_config(self.config, list(overrides))
