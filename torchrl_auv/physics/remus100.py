@@ -75,6 +75,7 @@ __all__ = [
     "kinematics",
     "propeller_forces",
     "rotation_matrix",
+    "rpm_for_thrust",
     "saturate",
     "step",
     "step_unchecked",
@@ -362,6 +363,41 @@ def propeller_forces(
     thrust = d4 * torch.where(forward, quad_t + lin_t, quad_t)
     torque = d5 * torch.where(forward, quad_q + lin_q, quad_q)
     return thrust, torque
+
+
+def rpm_for_thrust(
+    thrust: torch.Tensor, speed: torch.Tensor, params: Remus100Params | None = None
+) -> torch.Tensor:
+    r"""The propeller speed that gives ``thrust`` at the absolute speed ``speed``: the inverse
+        of :func:`propeller_forces` in :math:`n > 0`.
+
+        The thrust is a quadratic in :math:`n_s = n/60`,
+        :math:`X_p/(
+    ho D_p^4) = K_{T0} n_s^2 + a\,(V_a/D_p)\,n_s` with
+        :math:`a = (K_{T,max} - K_{T0})/J_{max} < 0`; its positive root is returned. Because
+        :math:`V_a = 0.944\,U` uses the speed over ground (the model's, after PVS), a propeller
+        turning at the rpm that holds a speed through still water pushes harder on a vehicle
+        held still against a current of that speed: holding station needs fewer rpm.
+
+        Args:
+            thrust: wanted thrust (N, >= 0), ``[*B]``.
+            speed: the vehicle's absolute speed :math:`U` (m/s), ``[*B]``.
+            params: vehicle parameters (default REMUS-100).
+
+        Returns:
+            ``[*B]`` propeller speed (rpm, >= 0).
+
+        >>> thrust, _ = propeller_forces(torch.tensor(600.0), torch.tensor(1.0))
+        >>> round(rpm_for_thrust(thrust, torch.tensor(1.0)).item(), 3)  # the round trip
+        600.0
+        >>> round(rpm_for_thrust(thrust, torch.tensor(0.0)).item())  # the same thrust at rest
+        372
+    """
+    p = DEFAULT_PARAMS if params is None else params
+    linear = (p.kt_max - p.kt_0) / p.j_max * p.wake_fraction_factor * speed / p.prop_diameter
+    need = thrust.clamp_min(0.0) / (p.rho * p.prop_diameter**4)
+    n_s = (-linear + (linear.square() + 4.0 * p.kt_0 * need).sqrt()) / (2.0 * p.kt_0)
+    return 60.0 * n_s
 
 
 def coriolis(nu_r: torch.Tensor, params: Remus100Params | None = None) -> torch.Tensor:
