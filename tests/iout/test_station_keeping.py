@@ -41,7 +41,29 @@ def test_in_a_current_on_station_the_bow_faces_the_flow_and_the_surge_matches_it
     into = math.atan2(-c[1], -c[0])  # north-east
     depth, heading, rpm = _keep([2.0, 1.0, 37.0], into, [0.0, 0.0, 45.0], c, 8.0)
     assert depth == pytest.approx(37.0)  # 8 m above the seabed the altimeter sees
-    assert heading == pytest.approx(into) and rpm == pytest.approx(RPM_PER_MPS * 0.6)
+    # held still over ground, the propeller needs fewer rpm than 0.6 m/s in still water
+    assert heading == pytest.approx(into) and 0.0 < rpm < RPM_PER_MPS * 0.6
+
+
+@pytest.mark.parametrize("speed", [0.5, 0.65, 1.0])
+def test_on_station_the_propeller_holds_the_model_still_against_the_current(speed):
+    """The REMUS-100 model itself, bow into the current at the keeper's rpm, stays put; at the
+    still-water rule's rpm (597 rpm per m/s) it runs upstream (its propeller sees the speed
+    over ground, :func:`~torchrl_auv.physics.remus100.rpm_for_thrust`)."""
+    from torchrl_auv.physics import remus100
+
+    flow = [0.0, -speed]  # toward the west: bow east
+    _, heading, rpm = _keep([1.0, 0.0, 37.0], math.pi / 2, [0.0, 0.0, 45.0], flow, 8.0)
+    rpms = torch.tensor([rpm, RPM_PER_MPS * speed], dtype=torch.float64)
+    eta = torch.zeros(2, 6, dtype=torch.float64)
+    eta[:, 2], eta[:, 5] = 30.0, heading
+    nu, act = torch.zeros(2, 6, dtype=torch.float64), torch.zeros(2, 3, dtype=torch.float64)
+    act[:, 2] = rpms
+    current = torch.tensor([[speed, -math.pi / 2]] * 2, dtype=torch.float64)
+    for _ in range(4000):  # 200 s
+        eta, nu, act = remus100.step(eta, nu, act, act, current, 0.05)
+    assert abs(nu[0, 0].item()) < 0.1  # the keeper's rpm: (nearly) still over ground
+    assert nu[1, 0].item() > 0.15  # the still-water rule: creeping upstream
 
 
 def test_off_station_the_ground_velocity_wanted_points_at_the_node_capped():
@@ -55,7 +77,8 @@ def test_off_station_the_ground_velocity_wanted_points_at_the_node_capped():
     want = math.atan2(1.0, cross)  # 50 deg east of north
     _, heading, rpm = _keep([-20.0, 0.0, 37.0], math.pi / 4, [0.0, 0.0, 45.0], [0.0, -1.0], 8.0)
     surge = math.hypot(1.0, cross) * math.cos(want - math.pi / 4)  # along the bow (45 deg)
-    assert heading == pytest.approx(want) and rpm == pytest.approx(RPM_PER_MPS * surge)
+    # the current carries part of the way: fewer rpm than that surge in still water
+    assert heading == pytest.approx(want) and 0.0 < rpm < RPM_PER_MPS * surge
     # a wider crab limit lets w = (1, 1) through unchanged
     wide = iout.StationKeepingConfig(max_crab_deg=60.0)
     t = lambda v: torch.tensor([v], dtype=torch.float64)  # noqa: E731
@@ -63,7 +86,7 @@ def test_off_station_the_ground_velocity_wanted_points_at_the_node_capped():
         t([-20.0, 0.0, 37.0]), t(math.pi / 4), t([0.0, 0.0, 45.0]), t([0.0, -1.0]), t(8.0), wide
     )
     assert heading.item() == pytest.approx(math.pi / 4)
-    assert rpm.item() == pytest.approx(RPM_PER_MPS * 2**0.5)
+    assert 0.0 < rpm.item() < RPM_PER_MPS * 2**0.5
     # the bow 50 deg off the water velocity wanted: turning at turn_rpm
     _, _, rpm = _keep([-20.0, 0.0, 37.0], want + 0.87, [0.0, 0.0, 45.0], [0.0, -1.0], 8.0)
     assert rpm == CFG.turn_rpm
@@ -72,8 +95,8 @@ def test_off_station_the_ground_velocity_wanted_points_at_the_node_capped():
 def test_in_a_current_a_node_downstream_is_reached_by_slowing_not_by_turning_round():
     # 0.6 m/s toward the north, bow south (upstream), node 20 m north (downstream): v_d = 1 m/s
     # north, w = v_d - c = 0.4 m/s north would need a U-turn; its upstream part is clamped to
-    # min_water_speed_mps (0.25) -> |w| = 0.25 is not above it: the propeller stops, the bow
-    # stays upstream and the current carries the vehicle back
+    # 0 -> |w| = 0: the propeller stops, the bow stays upstream and the current carries the
+    # vehicle back
     _, heading, rpm = _keep([-20.0, 0.0, 37.0], math.pi, [0.0, 0.0, 45.0], [0.6, 0.0], 8.0)
     assert rpm == 0.0 and heading == pytest.approx(math.pi)
     # the node 30 m west in a 1 m/s northward flow: w = (0, -1) - (1, 0) = (-1, -1), 45 deg
@@ -122,8 +145,8 @@ def test_the_expert_comes_from_downstream_and_never_heads_out_near_an_edge():
                                           current=current)  # fmt: skip
     # the northern AUV is downstream, in the cone: straight for the node (south)
     assert heading[0, 0].item() == pytest.approx(math.pi)
-    # the southern one is upstream, 40 m off: it goes round the node, not through it
-    assert abs(heading[0, 1].item()) > math.pi / 2
+    # the southern one is upstream, 40 m off, heading at the node: it turns away from it
+    assert heading[0, 1].item() == pytest.approx(-cfg.plan_lookahead_m / cfg.plan_radius_m)
     # 10 m from the northern edge, target beyond it to the north-east: no outward heading
     pose[0, 0, :2] = torch.tensor([190.0, 100.0])
     target[0, 0, :2] = torch.tensor([199.0, 140.0])
@@ -131,6 +154,34 @@ def test_the_expert_comes_from_downstream_and_never_heads_out_near_an_edge():
     _, heading, _ = iout.expert_setpoints(pose, target, torch.full((1, 2, 1, 3), 1e4), cfg,
                                           edges=edges)  # fmt: skip
     assert math.cos(heading[0, 0].item()) <= 1e-6  # no northward (outward) component
+
+
+@pytest.mark.parametrize("bearing_deg", [0, 45, 90, 135, 180, 225, 270, 315])
+def test_the_expert_reaches_the_service_radius_bow_into_the_current(bearing_deg):
+    """Kinematic closed loop (2 m/s through the water, turns of 20 m radius, a 0.6 m/s
+    current toward the north): from 50 m away in any direction, heading north (the way an
+    AUV leaves its previous service), the planned way reaches the 16 m horizontal service
+    radius bow within 60 deg of upstream (south), from inside the area."""
+    cfg = iout.ExpertConfig()
+    node = torch.tensor([100.0, 100.0, 45.0])
+    b = math.radians(bearing_deg)
+    x, y, psi = 100.0 + 50.0 * math.cos(b), 100.0 + 50.0 * math.sin(b), 0.0
+    flow = torch.tensor([[[0.6, 0.0]]])
+    for _ in range(400):
+        pose = torch.tensor([[[x, y, 37.0, 0.0, 0.0, psi]]])
+        edges = torch.tensor([[[x, 200.0 - x, y, 200.0 - y]]])
+        _, heading, _ = iout.expert_setpoints(pose, node.expand(1, 1, 3), torch.zeros(1, 1, 0, 3),
+                                              cfg, current=flow, edges=edges)  # fmt: skip
+        turn = math.remainder(heading.item() - psi, 2 * math.pi)
+        psi += max(-0.1, min(0.1, turn))  # 2 m/s on a 20 m circle: 0.1 rad/s
+        x += 2.0 * math.cos(psi) + 0.6
+        y += 2.0 * math.sin(psi)
+        if math.hypot(x - 100.0, y - 100.0) < 16.0:
+            break
+    else:
+        pytest.fail("never reached the node")
+    assert abs(math.remainder(psi - math.pi, 2 * math.pi)) < math.radians(60), math.degrees(psi)
+    assert 0.0 < x < 200.0 and 0.0 < y < 200.0
 
 
 def test_the_keeper_holds_a_vehicle_that_arrives_bow_into_a_current():

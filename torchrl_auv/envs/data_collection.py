@@ -91,7 +91,7 @@ class DataCollectionEnv(EnvBase):
     propeller matching it (stopped in still water), 8 m above the seabed the altimeter sees
     (``station_keeping``, :class:`~torchrl_auv.iout.StationKeepingConfig`). ``"overridden"``
     marks those AUV-decisions. An AUV that arrives bow downstream must turn round first and may
-    drift out of the service radius; the expert arrives from downstream.
+    drift out of the service radius; the expert plans its way to arrive from downstream.
 
     **Action** ``("agents", "action")`` ``[*B, N, 3]`` in [-1, 1] (``"action"`` ``[*B, 3 N]``
     with ``flatten_agents=True``), per AUV:
@@ -482,7 +482,7 @@ class DataCollectionEnv(EnvBase):
         keeper = torch.stack(
             iout.station_keeping_setpoints(
                 eta_hat[..., :3], eta_hat[..., 5], node.to(eta_hat.dtype), sensors["current"],
-                altitude, self.station_keeping,
+                altitude, self.station_keeping, radius_m=self.config.service_radius_m,
             ), -1
         )  # fmt: skip
         return torch.where(hovering[..., None], keeper, agent)

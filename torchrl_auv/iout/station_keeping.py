@@ -17,22 +17,34 @@ horizontal error, capped; 0 within the dead band, and in still water while the n
 than 60 deg off the bow: turning round to reach it would take the vehicle out on a 20 m
 circle, whereas a vehicle that lets the node lie behind it stays close by), and :math:`w` the
 velocity through the water that produces it. In a current (:math:`|\hat c|` at least
-``min_water_speed_mps``) :math:`w` keeps an upstream part of at least ``min_water_speed_mps``
-and a cross-flow part of at most :math:`\tan` ``max_crab_deg`` times that: the bow stays
-within ``max_crab_deg`` of upstream, and the vehicle moves downstream by going slower than the
-current instead of turning round on a 20 m circle (which it would overshoot and repeat).
-The heading setpoint is the direction of :math:`w`; the propeller speed makes the surge through
-the water equal to its component along the present heading (:math:`n = 597\,\mathrm{rpm}
-\cdot w\cos e`, the model's steady rpm per m/s, with :math:`e` the heading error), or
-``turn_rpm`` while the heading error exceeds 45 deg (the fins need flow to turn), and 0 when
-:math:`|w|` is below ``min_water_speed_mps`` (no current and on station: the vehicle coasts,
-the neutrally buoyant hull keeps its depth). Depth: ``altitude_m`` above the seabed from the
-altimeter, or above the node where the altimeter has no reading.
+``min_water_speed_mps``) :math:`w` keeps an upstream part of at least 0 and a cross-flow part
+of at most :math:`\tan` ``max_crab_deg`` times the larger of that and
+``min_water_speed_mps``: the bow stays within ``max_crab_deg`` of upstream, and the vehicle
+moves downstream by going slower than the current, down to stopping the propeller and letting
+the current carry it, instead of turning round on a 20 m circle (which it would overshoot
+and repeat). The heading setpoint is the direction of :math:`w`. The propeller speed gives
+the surge through the water :math:`w\cos e` (its component along the present heading, with
+:math:`e` the heading error) at the speed over ground wanted, :math:`|w + \hat c|`: the
+thrust that holds :math:`w\cos e` in still water (at :math:`597\,\mathrm{rpm}` per m/s, the
+model's steady rpm) inverted at that speed
+(:func:`~torchrl_auv.physics.remus100.rpm_for_thrust`). The model's propeller sees the speed
+over ground, so a vehicle held still against a current needs about a third fewer rpm than
+the still-water rule gives (measured on the model: 250 rpm hold it against 0.65 m/s, where
+the rule gives 392); with the still-water rule it crept upstream out of the service radius.
+The still-water rule itself is linear and under-drives at low speed (held against 0.5 m/s
+the vehicle drifts back at 0.07 m/s, against 0.3 m/s at 0.19 m/s), which the position
+feedback makes up for. The propeller turns at ``turn_rpm`` while
+the heading error exceeds 45 deg (the fins need flow to turn), and stops when :math:`|w|` is
+below ``min_water_speed_mps`` (no current and on station: the vehicle coasts, the neutrally
+buoyant hull keeps its depth). Depth: ``altitude_m`` above the seabed from the altimeter, or
+above the node where the altimeter has no reading.
 
 In a current the vehicle thus ends up bow into it, making way through the water at the
 current's speed (the propeller must beat 1 m/s in ``ves``). An AUV that starts its service
-heading downstream has to turn round first and drifts meanwhile: approaching a node from
-downstream avoids that (the scripted expert does, :mod:`~torchrl_auv.iout.expert`).
+heading downstream has to turn round first, which carries it a turning diameter (40 m)
+sideways: it often cannot come back within a long service. Approaching a node from
+downstream avoids that (the scripted expert plans its way there,
+:mod:`~torchrl_auv.iout.expert`).
 """
 
 from __future__ import annotations
@@ -41,6 +53,8 @@ import math
 from dataclasses import dataclass
 
 import torch
+
+from torchrl_auv.physics.remus100 import propeller_forces, rpm_for_thrust
 
 __all__ = ["StationKeepingConfig", "station_keeping_setpoints"]
 
@@ -63,6 +77,9 @@ class StationKeepingConfig:
             2.554 m/s at 1525 rpm).
         max_rpm: the highest propeller speed used (rpm).
         max_crab_deg: in a current, the largest angle between the bow and upstream (deg).
+        radius_margin_m: with ``radius_m`` given, the dead band ends this far inside the
+            horizontal radius left at the vehicle's height (m) ...
+        min_deadband_m: ... but is never smaller than this (m).
 
     Examples:
         >>> StationKeepingConfig().altitude_m
@@ -78,11 +95,13 @@ class StationKeepingConfig:
     rpm_per_mps: float = 1525.0 / 2.5536
     max_rpm: float = 1520.0
     max_crab_deg: float = 40.0
+    radius_margin_m: float = 3.0
+    min_deadband_m: float = 2.0
 
     def __post_init__(self) -> None:
         for name in ("altitude_m", "gain", "max_ground_speed_mps", "deadband_m",
                      "min_water_speed_mps", "turn_rpm", "rpm_per_mps", "max_rpm",
-                     "max_crab_deg"):  # fmt: skip
+                     "max_crab_deg", "radius_margin_m", "min_deadband_m"):  # fmt: skip
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -90,15 +109,16 @@ class StationKeepingConfig:
 def _bow_upstream(
     water: torch.Tensor, current: torch.Tensor, cfg: StationKeepingConfig
 ) -> torch.Tensor:
-    """``water`` (``[*B, 2]``, m/s) with its upstream part at least ``min_water_speed_mps`` and
-    its cross-flow part at most ``tan(max_crab_deg)`` times that: the bow stays within
-    ``max_crab_deg`` of upstream, and ground speed downstream comes from going slower than
-    the current rather than from turning round on a 20 m circle."""
+    """``water`` (``[*B, 2]``, m/s) with its upstream part at least 0 and its cross-flow part
+    at most ``tan(max_crab_deg)`` times the larger of that and ``min_water_speed_mps``: the
+    bow stays within ``max_crab_deg`` of upstream (or across the flow, when the vehicle only
+    moves across it), and ground speed downstream comes from going slower than the current,
+    down to letting it carry the vehicle, rather than from turning round on a 20 m circle."""
     up = -current / torch.linalg.vector_norm(current, dim=-1, keepdim=True).clamp_min(1e-6)
     along = (water * up).sum(-1, keepdim=True)
-    upstream = along.clamp_min(cfg.min_water_speed_mps)
+    upstream = along.clamp_min(0.0)
     cross = water - along * up
-    cap = upstream * math.tan(math.radians(cfg.max_crab_deg))
+    cap = upstream.clamp_min(cfg.min_water_speed_mps) * math.tan(math.radians(cfg.max_crab_deg))
     cross_speed = torch.linalg.vector_norm(cross, dim=-1, keepdim=True).clamp_min(1e-6)
     return upstream * up + cross * (cap / cross_speed).clamp_max(1.0)
 
@@ -110,8 +130,10 @@ def station_keeping_setpoints(
     current: torch.Tensor,
     altitude: torch.Tensor,
     config: StationKeepingConfig | None = None,
+    *,
+    radius_m: float | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Depth, heading and propeller setpoints that hold an AUV over its node (module doc).
+    r"""Depth, heading and propeller setpoints that hold an AUV over its node (module doc).
 
     Args:
         position: ``[*B, 3]`` the vehicle's NED position estimate (m).
@@ -120,6 +142,10 @@ def station_keeping_setpoints(
         current: ``[*B, 2]`` current estimate, north and east (m/s).
         altitude: ``[*B]`` altimeter reading (m), NaN where it has none.
         config: guidance parameters (default :class:`StationKeepingConfig`).
+        radius_m: the 3-D radius to stay within (m; the task's service radius), or ``None``.
+            Given, the dead band shrinks to ``radius_margin_m`` inside the horizontal radius
+            left at the vehicle's height above the node, :math:`\sqrt{r^2 - h^2}`: a vehicle
+            that could not yet descend (the fins need flow) is held closer.
 
     Returns:
         ``(depth, heading, rpm)`` setpoints, each ``[*B]`` (m, rad, rpm).
@@ -132,7 +158,7 @@ def station_keeping_setpoints(
         >>> depth, psi, rpm = station_keeping_setpoints(p, torch.tensor([math.pi / 2]), n, up,
         ...                                             torch.tensor([float("nan")]))
         >>> depth.item(), round(psi.item(), 4), round(rpm.item())  # bow east, into the flow
-        (37.0, 1.5708, 597)
+        (37.0, 1.5708, 369)
     """
     cfg = StationKeepingConfig() if config is None else config
     gap = node[..., :2] - position[..., :2]
@@ -143,7 +169,12 @@ def station_keeping_setpoints(
     bow = torch.stack((torch.cos(heading), torch.sin(heading)), -1).to(gap.dtype)
     ahead = (gap * bow).sum(-1, keepdim=True) >= 0.5 * distance  # within 60 deg of the bow
     still = torch.linalg.vector_norm(current, dim=-1, keepdim=True) < cfg.min_water_speed_mps
-    idle = (distance < cfg.deadband_m) | (still & ~ahead)
+    band = torch.full_like(distance, cfg.deadband_m)
+    if radius_m is not None:
+        height = (node[..., 2:3] - position[..., 2:3]).to(distance.dtype)
+        flat = (radius_m**2 - height.square()).clamp_min(0.0).sqrt() - cfg.radius_margin_m
+        band = torch.minimum(band, flat.clamp_min(cfg.min_deadband_m))
+    idle = (distance < band) | (still & ~ahead)
     wanted = torch.where(idle, torch.zeros_like(wanted), wanted)
     water = wanted - current.to(wanted.dtype)
     water = torch.where(still, water, _bow_upstream(water, current.to(water.dtype), cfg))
@@ -152,7 +183,10 @@ def station_keeping_setpoints(
     heading_sp = torch.where(moving, torch.atan2(water[..., 1], water[..., 0]), heading)
     error = torch.atan2(torch.sin(heading_sp - heading), torch.cos(heading_sp - heading)).abs()
     along = water_speed * torch.cos(error).clamp_min(0.0)
-    rpm = (cfg.rpm_per_mps * along).clamp(0.0, cfg.max_rpm)
+    # the thrust that holds `along` through still water, at the speed over ground wanted
+    thrust, _ = propeller_forces(cfg.rpm_per_mps * along, along)
+    ground = torch.linalg.vector_norm(water + current.to(water.dtype), dim=-1)
+    rpm = rpm_for_thrust(thrust, ground).clamp(0.0, cfg.max_rpm)
     rpm = torch.where(error > math.pi / 4, torch.full_like(rpm, cfg.turn_rpm), rpm)
     rpm = torch.where(moving, rpm, torch.zeros_like(rpm))
     ground_level = torch.where(altitude.isnan(), node[..., 2], position[..., 2] + altitude)
