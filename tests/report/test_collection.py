@@ -47,3 +47,18 @@ def test_the_report_prints_one_row_per_preset_rate_model_and_policy(capsys):
     assert printed[0].startswith("| preset |") and len(printed) == 4  # header, rule, 2 rows
     with pytest.raises(ValueError, match="policy"):
         make_policy("hover", DataCollectionEnv(batch_size=[1], seed=0))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rate_model", ["shannon", "paper"])
+@pytest.mark.parametrize("preset", ["ideal", "es", "ves"])
+def test_the_expert_finishes_its_episodes_and_ends_its_services_on_station(preset, rate_model):
+    """Issue [9/13]'s bar for the scripted expert, 8 scenes x 1000 decisions per preset and
+    rate model: no termination in at least 90 % of the episodes, at least 95 % of the services
+    ending within the service radius, violations at most 2 % of AUV-decisions in ideal."""
+    env = DataCollectionEnv(batch_size=[8], sea_state=preset, rate_model=rate_model, seed=0)
+    stats = episode_stats(env, make_policy("expert", env), 1000)
+    assert stats["terminated"] <= 0.1
+    assert stats["service_end_inside"] >= 0.95, stats["service_end_inside"]
+    if preset == "ideal":
+        assert stats["violation_rate"] <= 0.02, stats["violation_rate"]
