@@ -143,9 +143,12 @@ def station_keeping_setpoints(
         altitude: ``[*B]`` altimeter reading (m), NaN where it has none.
         config: guidance parameters (default :class:`StationKeepingConfig`).
         radius_m: the 3-D radius to stay within (m; the task's service radius), or ``None``.
-            Given, the dead band shrinks to ``radius_margin_m`` inside the horizontal radius
-            left at the vehicle's height above the node, :math:`\sqrt{r^2 - h^2}`: a vehicle
-            that could not yet descend (the fins need flow) is held closer.
+            Given, in a current the dead band shrinks to ``radius_margin_m`` inside the
+            horizontal radius left at the vehicle's height above the node,
+            :math:`\sqrt{r^2 - h^2}`: a vehicle that could not yet descend (the fins need
+            flow) is held closer. Not in still water, where the vehicle coasts rather than
+            turn round and a smaller band measured worse (ideal, seed 0: services ending
+            inside 96.6 % against 97.5 % without it).
 
     Returns:
         ``(depth, heading, rpm)`` setpoints, each ``[*B]`` (m, rad, rpm).
@@ -170,10 +173,10 @@ def station_keeping_setpoints(
     ahead = (gap * bow).sum(-1, keepdim=True) >= 0.5 * distance  # within 60 deg of the bow
     still = torch.linalg.vector_norm(current, dim=-1, keepdim=True) < cfg.min_water_speed_mps
     band = torch.full_like(distance, cfg.deadband_m)
-    if radius_m is not None:
+    if radius_m is not None:  # in a current: the dead band inside the 3-D radius
         height = (node[..., 2:3] - position[..., 2:3]).to(distance.dtype)
         flat = (radius_m**2 - height.square()).clamp_min(0.0).sqrt() - cfg.radius_margin_m
-        band = torch.minimum(band, flat.clamp_min(cfg.min_deadband_m))
+        band = torch.where(still, band, torch.minimum(band, flat.clamp_min(cfg.min_deadband_m)))
     idle = (distance < band) | (still & ~ahead)
     wanted = torch.where(idle, torch.zeros_like(wanted), wanted)
     water = wanted - current.to(wanted.dtype)
