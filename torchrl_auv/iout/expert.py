@@ -309,9 +309,7 @@ def _planned_direction(
             + cfg.plan_node_weight * step * (cfg.plan_clear_m - gap).clamp_min(0.0).sum(-1)
         )
         if edges is not None:
-            x, y = points[..., 0], points[..., 1]
-            e = edges[..., None, None, :].to(points.dtype)
-            room = torch.stack((e[..., 0] + x, e[..., 1] - x, e[..., 2] + y, e[..., 3] - y), -1)
+            room = _edges_of(edges[..., None, None, :], points)  # [*B, N, 4, K, 4]
             short = (cfg.plan_margin_m - room).clamp_min(0.0).amax(-1).sum(-1)
             cost = cost + cfg.plan_area_weight * step * short
         costs.append(torch.where(ok, cost, math.inf))
@@ -409,7 +407,8 @@ def expert_setpoints(
                                            avoid_radius_m=cfg.avoid_radius_m, prefer=inward,
                                            cone_deg=cfg.approach_cone_deg,
                                            keep_out_m=cfg.keep_out_m, bow=heading_dir)  # fmt: skip
-    if current is not None and cfg.plan_radius_m > 0:  # outside the final cone: plan the way
+    planning = current is not None and cfg.plan_radius_m > 0 and bool(flowing.any())
+    if planning:  # outside the final cone: plan the way
         planned = _planned_direction(to_target, psi, arrival_dir, current, edges, cfg)
         approach = torch.where(in_cone, approach, planned)
     goal_dir = torch.where(flowing, approach, goal_dir)
