@@ -137,3 +137,36 @@ def test_cli_writes_a_data_collection_dataset(tmp_path):
     batch = buffer.sample(3)
     assert batch["history", "observation"].shape == (3, 10, 37)
     assert batch["action_chunk"].shape == (3, 8, 3)
+
+
+def test_another_policy_acts_and_the_expert_labels_the_states_it_visits():
+    """DAgger data: the random policy's actions are executed (they are the history), the
+    labels are the expert's actions at the visited observations (recomputed here)."""
+    from torchrl.envs.utils import RandomPolicy
+
+    from torchrl_auv import iout
+    from torchrl_auv.envs.experts import _collection_action
+
+    data = collect_demonstrations(
+        "data_collection", episodes=2, max_steps=6, horizon=3, history=2,
+        policy=lambda env: RandomPolicy(env.full_action_spec),
+    )  # fmt: skip
+    expert = _collection_action(data["observation"], iout.IoUTConfig(), iout.ExpertConfig())
+    torch.testing.assert_close(data["action"], expert.to(data["action"].dtype))
+    assert (data["executed"] - data["action"]).abs().mean() > 0.3  # random, not the expert
+    rows = data.reshape(4, 6)
+    torch.testing.assert_close(rows["history", "action"][:, 1:, -1], rows["executed"][:, :-1])
+    torch.testing.assert_close(rows["action_chunk"][:, :4, 1], rows["action"][:, 1:5])
+
+
+def test_batches_do_not_depend_on_the_number_of_workers():
+    from torchrl_auv.envs.demonstrations import collect_demonstration_batches
+
+    options = {"env": "data_collection", "episodes": 1, "max_steps": 4, "horizon": 2,
+               "history": 2, "seed": 3}  # fmt: skip
+    one = collect_demonstration_batches(2, workers=1, **options)
+    two = collect_demonstration_batches(2, workers=2, **options)
+    assert one["batch"].tolist() == two["batch"].tolist() == [0] * 8 + [1] * 8
+    torch.testing.assert_close(one["observation"], two["observation"])
+    torch.testing.assert_close(one["action_chunk"], two["action_chunk"])
+    assert not torch.equal(one["observation"][:8], one["observation"][8:])  # new scenes

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import torch
 from tensordict import TensorDict
+from tensordict.nn import TensorDictModuleBase
 from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
 from torchrl.envs import EnvBase, TransformedEnv
 
@@ -42,15 +43,44 @@ from torchrl_auv.envs.experts import ScriptedExpert
 from torchrl_auv.envs.history import StateActionHistory, history_key_for
 from torchrl_auv.envs.tracking import AUVTrackingEnv
 
-__all__ = ["collect_demonstrations", "load_demonstrations", "save_demonstrations"]
+__all__ = [
+    "batch_seed",
+    "collect_demonstration_batches",
+    "collect_demonstrations",
+    "load_demonstrations",
+    "save_demonstrations",
+]
 
 ENVS = ("tracking", "data_collection")
+#: Seeds of the batches of :func:`collect_demonstration_batches`: ``seed + SEED_STRIDE * b``.
+SEED_STRIDE = 1000
 
 
 def _make_env(env: str, episodes: int, max_steps: int, **options: object) -> EnvBase:
     if env == "tracking":
         return AUVTrackingEnv(batch_size=[episodes], max_steps=max_steps, **options)
     return DataCollectionEnv(batch_size=[episodes], max_steps=max_steps, **options)
+
+
+def _label_key(action_key):
+    """Where :class:`_Labelled` writes the expert's action (next to the action key)."""
+    key = (action_key,) if isinstance(action_key, str) else tuple(action_key)
+    return (*key[:-1], "expert_action")
+
+
+class _Labelled(TensorDictModuleBase):
+    """Runs the expert (its action kept under ``expert_action``), then the acting policy."""
+
+    def __init__(self, policy, expert, action_key) -> None:
+        super().__init__()
+        self.policy, self.expert, self.action_key = policy, expert, action_key
+        self.in_keys = list(expert.in_keys)
+        self.out_keys = [action_key, _label_key(action_key)]
+
+    def forward(self, tensordict):
+        self.expert(tensordict)
+        tensordict.set(_label_key(self.action_key), tensordict.get(self.action_key).clone())
+        return self.policy(tensordict)
 
 
 def _chunks(actions: torch.Tensor, done: torch.Tensor, horizon: int):
@@ -81,9 +111,15 @@ def collect_demonstrations(
     sea_state: str = "ideal",
     controller: str = "s_surface",
     seed: int = 0,
+    policy=None,
     **env_options: object,
 ) -> TensorDict:
     """Roll the scripted expert out in ``episodes`` parallel scenes; return a flat batch.
+
+    With ``policy`` another policy acts (e.g. the proposer itself: DAgger, Ross et al. 2011)
+    and the expert only labels: each sample's ``action`` and chunk are the expert's actions at
+    the states the policy visited, its history the policy's own (executed) actions, and
+    ``executed`` the policy's action.
 
     Args:
         env: ``"tracking"`` or ``"data_collection"``.
@@ -92,6 +128,8 @@ def collect_demonstrations(
         horizon: chunk length ``H``.
         history: history length ``L``.
         sea_state, controller, seed: passed to the env.
+        policy: ``env -> policy`` (called with the history-wrapped env; the policy writes the
+            env's action key), or ``None``: the expert acts.
         env_options: further env arguments (e.g. ``rate_model="paper"`` for data collection).
 
     Returns:
@@ -120,15 +158,20 @@ def collect_demonstrations(
     tenv = TransformedEnv(
         base, StateActionHistory(history, observation_key=obs_key, action_key=act_key)
     )
-    rollout = tenv.rollout(max_steps, ScriptedExpert(base), break_when_any_done=False)
+    expert = ScriptedExpert(base)
+    actor = expert if policy is None else _Labelled(policy(tenv), expert, act_key)
+    rollout = tenv.rollout(max_steps, actor, break_when_any_done=False)
+    label_key = act_key if policy is None else _label_key(act_key)
     data = TensorDict(
         {
             "observation": rollout[obs_key],
             "history": rollout[history_key_for(obs_key)].clone(),
-            "action": rollout[act_key],
+            "action": rollout[label_key],
         },
         batch_size=rollout[obs_key].shape[:-1],
     )
+    if policy is not None:
+        data["executed"] = rollout[act_key]
     done = rollout["next", "done"].squeeze(-1)  # [E, T]
     overridden = rollout.get(("next", "overridden"), None)
     if overridden is None:
@@ -154,6 +197,75 @@ def collect_demonstrations(
     data["agent"] = agent.unsqueeze(-1).expand(rows, max_steps).clone()
     data["step"] = torch.arange(max_steps).expand(rows, max_steps).clone()
     return data.reshape(-1)
+
+
+def batch_seed(seed: int, batch: int) -> int:
+    """The env seed of demonstration batch ``batch`` (batch 0: ``seed`` itself).
+
+    >>> batch_seed(3, 0), batch_seed(3, 2)
+    (3, 2003)
+    """
+    return seed + SEED_STRIDE * batch
+
+
+def _collect_batch(batch: int, seed: int, options: dict) -> TensorDict:
+    torch.set_num_threads(1)
+    data = collect_demonstrations(seed=batch_seed(seed, batch), **options)
+    data["batch"] = torch.full(data.batch_size, batch, dtype=torch.int64)
+    return data
+
+
+def collect_demonstration_batches(
+    batches: int = 1,
+    *,
+    workers: int = 1,
+    seed: int = 0,
+    first_batch: int = 0,
+    **options: object,
+) -> TensorDict:
+    """:func:`collect_demonstrations` ``batches`` times on new scenes, in ``workers`` processes.
+
+    Batch ``b`` (numbered from ``first_batch``: a later call continues on new scenes) runs
+    ``options["episodes"]`` scenes seeded :func:`batch_seed` ``(seed, b)``, so
+    the data depends on ``batches`` and ``seed`` but not on ``workers``; ``episode`` is
+    numbered across batches and ``batch`` says which batch a sample came from. One env batch
+    of many scenes is faster per decision than several small ones, and a second process uses
+    the idle second core of a 2-core machine.
+
+    Args:
+        batches: how many batches (``>= 1``).
+        workers: processes (1: in this process; more: spawned worker processes, each with one
+            torch thread).
+        seed: the seed of batch 0.
+        first_batch: the number of the first batch (``>= 0``).
+        options: the other arguments of :func:`collect_demonstrations`.
+
+    >>> data = collect_demonstration_batches(2, episodes=1, max_steps=3, horizon=2, history=2)
+    >>> data["batch"].tolist(), data["episode"].tolist()
+    ([0, 0, 0, 1, 1, 1], [0, 0, 0, 1, 1, 1])
+    """
+    if not (isinstance(batches, int) and batches >= 1):
+        raise ValueError(f"batches must be an int >= 1, got {batches!r}")
+    if not (isinstance(workers, int) and workers >= 1):
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    if not (isinstance(first_batch, int) and first_batch >= 0):
+        raise ValueError(f"first_batch must be an int >= 0, got {first_batch!r}")
+    numbers = range(first_batch, first_batch + batches)
+    if workers == 1 or batches == 1:
+        parts = [_collect_batch(b, seed, options) for b in numbers]
+    else:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(workers, batches), mp_context=context) as pool:
+            futures = [pool.submit(_collect_batch, b, seed, options) for b in numbers]
+            parts = [future.result() for future in futures]
+    episodes = 0
+    for part in parts:  # number the episodes across batches
+        part["episode"] = part["episode"] + episodes
+        episodes = int(part["episode"].max()) + 1
+    return torch.cat(parts)
 
 
 def save_demonstrations(data: TensorDict, out: str | Path, *, metadata: dict | None = None) -> Path:

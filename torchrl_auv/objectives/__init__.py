@@ -10,6 +10,7 @@ from torchrl_auv.objectives.denoising import DenoisingLoss
 from torchrl_auv.objectives.lyapunov import MODES, LyapunovActorCriticLoss
 from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
 from torchrl_auv.objectives.pretraining import (
+    LR_SCHEDULES,
     PretrainResult,
     heldout_denoising_loss,
     pretrain_proposer,
@@ -19,6 +20,7 @@ from torchrl_auv.objectives.selection import SELECTION_MODES, CandidateSelector
 
 __all__ = [
     "FORMS",
+    "LR_SCHEDULES",
     "MODES",
     "PRIORS",
     "Q_REDUCTIONS",

@@ -7,8 +7,9 @@ r"""``DenoisingLoss``: the epsilon-prediction loss of the diffusion proposer (pa
         t, s)\big\|^2,
 
 with :math:`t` uniform in :math:`\{0, \dots, T-1\}`, :math:`x_0` the demonstrated action chunk
-normalised to :math:`[-1, 1]` and :math:`s` the proposer's conditioning state. Chunk steps past
-the end of an episode (``action_chunk_mask`` false) are left out of the mean.
+normalised to :math:`[-1, 1]` and :math:`s` the proposer's conditioning state (standardised by
+the proposer). Chunk steps past the end of an episode (``action_chunk_mask`` false) are left
+out of the mean.
 """
 
 from __future__ import annotations
@@ -120,7 +121,7 @@ class DenoisingLoss(LossModule):
         t = torch.randint(0, proposer.schedule.num_train_steps, batch, **kw)
         eps = torch.randn(x0.shape, dtype=x0.dtype, **kw)
         x_t = proposer.schedule.add_noise(x0, eps, t)
-        error = (proposer.noise_model(x_t, t, state) - eps).square().mean(-1)  # [*B, H]
+        error = (proposer.predict_noise(x_t, t, state) - eps).square().mean(-1)  # [*B, H]
         mask = tensordict.get(self.tensor_keys.action_mask, None)
         if mask is None:
             loss = error.mean()

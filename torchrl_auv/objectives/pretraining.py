@@ -19,7 +19,15 @@ from torchrl.data.replay_buffers.samplers import RandomSampler
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.objectives.denoising import DenoisingLoss
 
-__all__ = ["PretrainResult", "heldout_denoising_loss", "pretrain_proposer"]
+__all__ = [
+    "LR_SCHEDULES",
+    "PretrainResult",
+    "heldout_denoising_loss",
+    "heldout_split",
+    "pretrain_proposer",
+]
+
+LR_SCHEDULES = ("constant", "cosine")
 
 
 @dataclass
@@ -59,6 +67,23 @@ def heldout_denoising_loss(
     return total / max(count, 1)
 
 
+def heldout_split(data: TensorDictBase, fraction: float, generator: torch.Generator):
+    """``(heldout, train)``: whole episodes held out when ``data`` has an ``episode`` entry
+    (samples of one episode are near copies of each other, so a split of samples would
+    measure the training fit), else random samples; about ``fraction`` of the samples."""
+    if "episode" not in data.keys():
+        order = torch.randperm(len(data), generator=generator)
+        n = round(fraction * len(data))
+        return data[order[:n]], data[order[n:]]
+    episodes = data["episode"].unique()
+    order = episodes[torch.randperm(len(episodes), generator=generator)]
+    n = round(fraction * len(episodes))
+    if fraction > 0 and n == 0 and len(episodes) > 1:
+        n = 1
+    held = torch.isin(data["episode"], order[:n])
+    return data[held], data[~held]
+
+
 def pretrain_proposer(
     proposer: DiffusionProposer,
     data: TensorDictBase,
@@ -73,6 +98,9 @@ def pretrain_proposer(
     logger=None,
     seed: int = 0,
     skip_overridden: bool = True,
+    normalize_state: bool = True,
+    lr_schedule: str = "constant",
+    weight_decay: float = 0.0,
 ) -> PretrainResult:
     """Train ``proposer`` on demonstration samples (Adam, the paper's batch 32 and lr 1e-4).
 
@@ -82,7 +110,8 @@ def pretrain_proposer(
             action-chunk keys.
         steps: optimiser steps.
         batch_size, lr: minibatch size and Adam learning rate.
-        heldout_fraction: fraction of samples (whole random split) kept for evaluation.
+        heldout_fraction: fraction kept for the held-out loss: of the episodes when the data
+            has an ``episode`` entry (whole scenes held out), else of the samples.
         ema_decay: keep an EMA of the weights (``proposer.enable_ema``) when given.
         log_every: record (and log) the mean training loss every so many steps.
         eval_every: record (and log) the held-out loss every so many steps.
@@ -92,6 +121,11 @@ def pretrain_proposer(
         skip_overridden: leave out the samples whose ``overridden`` flag is set (decisions
             whose action the env replaced, e.g. while holding station in service: the
             demonstrated action there was never executed). Data without the key is kept whole.
+        normalize_state: fit the proposer's state standardisation
+            (:meth:`~torchrl_auv.modules.DiffusionProposer.fit_state_normalization`) on the
+            training split before the first step.
+        lr_schedule: ``"constant"`` or ``"cosine"`` (annealed to 0 over ``steps``).
+        weight_decay: AdamW's decoupled weight decay (0: plain Adam).
 
     Returns:
         The loss curves and the final held-out loss.
@@ -117,15 +151,26 @@ def pretrain_proposer(
         if len(data) < 2:
             raise ValueError("data holds fewer than 2 samples that are not overridden")
     g = torch.Generator().manual_seed(seed)
-    order = torch.randperm(len(data), generator=g)
-    n_heldout = round(heldout_fraction * len(data))
-    heldout, train = data[order[:n_heldout]], data[order[n_heldout:]]
+    heldout, train = heldout_split(data, heldout_fraction, g)
+    n_heldout = len(heldout)
     buffer = TensorDictReplayBuffer(
         storage=LazyTensorStorage(len(train)), sampler=RandomSampler(), batch_size=batch_size
     )
     buffer.extend(train)
+    if lr_schedule not in LR_SCHEDULES:
+        raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got {lr_schedule!r}")
+    if not weight_decay >= 0:
+        raise ValueError(f"weight_decay must be >= 0, got {weight_decay}")
+    if normalize_state:
+        with torch.no_grad():
+            proposer.fit_state_normalization(proposer.build_state(train))
     loss = DenoisingLoss(proposer, generator=g, ema_decay=ema_decay)
-    optimiser = torch.optim.Adam(loss.parameters(), lr=lr)
+    optimiser = torch.optim.AdamW(loss.parameters(), lr=lr, weight_decay=weight_decay)
+    scheduler = (
+        torch.optim.lr_scheduler.CosineAnnealingLR(optimiser, steps)
+        if lr_schedule == "cosine"
+        else None
+    )
     result, running = PretrainResult(), []
     if n_heldout:  # the untrained model's held-out loss, step 0 of the curve
         result.heldout_steps.append(0)
@@ -135,6 +180,8 @@ def pretrain_proposer(
         optimiser.zero_grad()
         value.backward()
         optimiser.step()
+        if scheduler is not None:
+            scheduler.step()
         if ema_decay is not None:
             loss.update_ema()
         running.append(value.item())
