@@ -6,6 +6,12 @@ keys and specs, so it works on any TorchRL env with the right keys.
 
 from __future__ import annotations
 
+from torchrl_auv.modules.consensus import (
+    CANDIDATE_PICKS,
+    ProposerAlone,
+    medoid_index,
+    pick_candidate,
+)
 from torchrl_auv.modules.diffusion_schedule import SAMPLERS, SCHEDULES, NoiseSchedule
 from torchrl_auv.modules.noise_models import (
     MLPNoiseModel,
@@ -16,12 +22,16 @@ from torchrl_auv.modules.noise_models import (
 from torchrl_auv.modules.proposer import DiffusionProposer
 
 __all__ = [
+    "CANDIDATE_PICKS",
     "SAMPLERS",
     "SCHEDULES",
     "DiffusionProposer",
     "MLPNoiseModel",
     "NoiseSchedule",
+    "ProposerAlone",
     "SinusoidalEmbedding",
     "TemporalUNet1d",
     "make_noise_model",
+    "medoid_index",
+    "pick_candidate",
 ]

@@ -9,7 +9,11 @@ denoised in one batched pass; the state encoding is computed once per proposal.
 
 Actions are normalised to ``[-1, 1]`` with the action bounds inside the model and mapped back
 on output, so the clipping of the predicted clean chunk at every step keeps every candidate
-inside the bounds.
+inside the bounds. The conditioning state is standardised with a per-feature location and
+scale kept in the module (identity until :meth:`DiffusionProposer.set_state_normalization`;
+:func:`~torchrl_auv.objectives.pretrain_proposer` fits them on its training split): the
+observation's features range from rates of 0.01 rad/s to fills of order one, and a noise
+model on raw features learns the small ones slowly.
 """
 
 from __future__ import annotations
@@ -116,6 +120,8 @@ class DiffusionProposer(TensorDictModuleBase):
             raise ValueError(f"action_high must exceed action_low, got {low} and {high}")
         self.register_buffer("action_low", low)
         self.register_buffer("action_high", high)
+        self.register_buffer("state_loc", torch.zeros(state_dim))
+        self.register_buffer("state_scale", torch.ones(state_dim))
         self.state_dim, self.action_dim = state_dim, action_dim
         self.num_candidates, self.horizon = num_candidates, horizon
         self.num_inference_steps, self.sampler = num_inference_steps, sampler
@@ -200,6 +206,33 @@ class DiffusionProposer(TensorDictModuleBase):
             num_inference_steps=num_inference_steps, sampler=sampler, **kwargs,
         )  # fmt: skip
 
+    def configure_sampling(
+        self,
+        *,
+        num_candidates: int | None = None,
+        num_inference_steps: int | None = None,
+        sampler: str | None = None,
+    ) -> None:
+        """Change how the proposer samples (K, denoising steps, sampler) without touching its
+        weights: a pretrained proposer serves any of them. ``None`` keeps a value.
+
+        >>> proposer = DiffusionProposer(4, 2, num_inference_steps=10)
+        >>> proposer.configure_sampling(num_candidates=16, sampler="ddim")
+        >>> proposer.num_candidates, proposer.sampler, proposer.num_inference_steps
+        (16, 'ddim', 10)
+        """
+        if num_candidates is not None:
+            if not (isinstance(num_candidates, int) and num_candidates >= 1):
+                raise ValueError(f"num_candidates must be an int >= 1, got {num_candidates!r}")
+            self.num_candidates = num_candidates
+        if num_inference_steps is not None:
+            self.schedule.timesteps(num_inference_steps)  # validates it
+            self.num_inference_steps = num_inference_steps
+        if sampler is not None:
+            if sampler not in SAMPLERS:
+                raise ValueError(f"sampler must be one of {SAMPLERS}, got {sampler!r}")
+            self.sampler = sampler
+
     # -- state and normalisation ----------------------------------------------------------
     def build_state(self, tensordict: TensorDictBase) -> torch.Tensor:
         """The conditioning state ``[*B, state_dim]`` read from ``tensordict``."""
@@ -223,6 +256,44 @@ class DiffusionProposer(TensorDictModuleBase):
                 f"state_dim is {self.state_dim}"
             )
         return state
+
+    def set_state_normalization(
+        self, loc: torch.Tensor | Sequence[float], scale: torch.Tensor | Sequence[float]
+    ) -> None:
+        """Standardise the conditioning state as ``(state - loc) / scale`` from now on (both
+        ``[state_dim]``, ``scale > 0``); :meth:`fit_state_normalization` computes them."""
+        loc = torch.as_tensor(loc, dtype=self.state_loc.dtype, device=self.state_loc.device)
+        scale = torch.as_tensor(scale, dtype=self.state_loc.dtype, device=self.state_loc.device)
+        for name, value in (("loc", loc), ("scale", scale)):
+            if value.shape != (self.state_dim,):
+                raise ValueError(
+                    f"{name} must be shaped [{self.state_dim}], got {tuple(value.shape)}"
+                )
+        if not bool((scale > 0).all() and loc.isfinite().all() and scale.isfinite().all()):
+            raise ValueError("scale must be finite and > 0 and loc finite")
+        self.state_loc.copy_(loc)
+        self.state_scale.copy_(scale)
+
+    def fit_state_normalization(self, states: torch.Tensor, *, min_scale: float = 1e-2) -> None:
+        """Set the standardisation to the mean and standard deviation of ``states``
+        (``[N, state_dim]``, as :meth:`build_state` returns them), each scale at least
+        ``min_scale`` (a feature nearly constant in the data is not blown up where it varies
+        later)."""
+        if states.dim() != 2 or states.shape[-1] != self.state_dim or len(states) < 2:
+            raise ValueError(
+                f"states must be shaped [N >= 2, {self.state_dim}], got {tuple(states.shape)}"
+            )
+        states = states.double()
+        self.set_state_normalization(states.mean(0), states.std(0).clamp_min(min_scale))
+
+    def normalize_state(self, state: torch.Tensor) -> torch.Tensor:
+        """``(state - state_loc) / state_scale``: what the noise model is conditioned on."""
+        return (state - self.state_loc.to(state.dtype)) / self.state_scale.to(state.dtype)
+
+    def predict_noise(self, x: torch.Tensor, t: torch.Tensor, state: torch.Tensor) -> torch.Tensor:
+        """The trained noise model's prediction for noisy normalised chunks ``x``
+        ``[*B, H, A]`` at steps ``t`` ``[*B]`` given raw states ``[*B, state_dim]``."""
+        return self.noise_model(x, t, self.normalize_state(state))
 
     def normalize(self, action: torch.Tensor) -> torch.Tensor:
         """Actions in the bounds -> ``[-1, 1]``."""
@@ -278,7 +349,7 @@ class DiffusionProposer(TensorDictModuleBase):
                 self._compiled[id(model)] = torch.compile(model.denoise, dynamic=False)
             denoise = self._compiled[id(model)]
         batch = state.shape[:-1]
-        cond = model.condition(state).unsqueeze(-2).expand(*batch, k, -1)
+        cond = model.condition(self.normalize_state(state)).unsqueeze(-2).expand(*batch, k, -1)
         shape = (*batch, k, self.horizon, self.action_dim)
         kw = {"generator": generator, "dtype": state.dtype, "device": state.device}
         x = torch.randn(shape, **kw)
@@ -348,6 +419,8 @@ class DiffusionProposer(TensorDictModuleBase):
                 "config": self.config(),
                 "schedule": self.schedule.config(),
                 "noise_model": self.noise_model.state_dict(),
+                "state_loc": self.state_loc.clone(),
+                "state_scale": self.state_scale.clone(),
                 "ema": None if self.ema is None else self.ema.state_dict(),
                 "ema_decay": self.ema_decay,
                 "use_ema": self.use_ema,
@@ -358,9 +431,10 @@ class DiffusionProposer(TensorDictModuleBase):
 
     @classmethod
     def load(cls, path: str | Path) -> DiffusionProposer:
-        """Rebuild a proposer saved by :meth:`save`: weights, and the EMA weights with their
-        decay and the ``use_ema`` switch (older checkpoints that hold no decay resume at the
-        default 0.995, with a warning)."""
+        """Rebuild a proposer saved by :meth:`save`: weights, the state standardisation
+        (identity for checkpoints that hold none), and the EMA weights with their decay and
+        the ``use_ema`` switch (older checkpoints that hold no decay resume at the default
+        0.995, with a warning)."""
         data = torch.load(Path(path), weights_only=False)
         config = dict(data["config"])
         for key in ("state_key", "history_key", "candidates_key", "first_actions_key",
@@ -369,6 +443,8 @@ class DiffusionProposer(TensorDictModuleBase):
                 config[key] = tuple(config[key])
         proposer = cls(**config)
         proposer.noise_model.load_state_dict(data["noise_model"])
+        if "state_loc" in data:  # older checkpoints: no standardisation (identity)
+            proposer.set_state_normalization(data["state_loc"], data["state_scale"])
         if data["ema"] is not None:
             decay = data.get("ema_decay")
             if decay is None:
