@@ -37,8 +37,11 @@ def plot_pretraining_loss(
     *,
     heldout_steps: Sequence[int] = (),
     heldout_losses: Sequence[float] = (),
+    phases: Sequence[tuple[int, str]] = (),
 ) -> Path:
-    """The denoising loss against optimiser steps (log scale), PNG (the paper's Fig. 4).
+    """The denoising loss against optimiser steps (log scale), PNG (the paper's Fig. 4);
+    ``phases`` ``(first step, name)`` after the first are marked by a dashed line (e.g. the
+    DAgger rounds of :func:`~torchrl_auv.training.build_first_stage`).
 
     >>> import tempfile
     >>> plot_pretraining_loss([1, 2, 3], [1.0, 0.5, 0.3], tempfile.mkdtemp() + "/loss.png").suffix
@@ -53,6 +56,10 @@ def plot_pretraining_loss(
     ax.plot(list(steps), list(losses), label="training")
     if len(heldout_steps):
         ax.plot(list(heldout_steps), list(heldout_losses), "o-", label="held out")
+    for start, name in list(phases)[1:]:
+        ax.axvline(start, color="grey", linestyle="--", linewidth=0.8)
+        ax.annotate(name, (start, 1.0), xycoords=("data", "axes fraction"), xytext=(3, -12),
+                    textcoords="offset points", fontsize=8, color="grey")  # fmt: skip
     ax.set_yscale("log")
     ax.set_xlabel("optimiser step")
     ax.set_ylabel("denoising loss (MSE of the noise)")

@@ -43,15 +43,20 @@ DEFAULT_METRICS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "c
                    "heading_error_mean", "depth_error_mean")  # fmt: skip
 
 
+#: Overrides that say where a job writes, not what it ran: never an axis of a table.
+LOCATION_KEYS = ("run_dir", "run_root", "resume", "proposer.cache_dir")
+
+
 def _job_values(run: Path) -> dict[str, str]:
-    """The job's ``key=value`` overrides (``+``/``~`` prefixes dropped; Hydra's own skipped)."""
+    """The job's ``key=value`` overrides (``+``/``~`` prefixes dropped; Hydra's own and
+    :data:`LOCATION_KEYS` skipped)."""
     path = run / ".hydra" / "overrides.yaml"
     if not path.exists():
         return {}
     values = {}
     for item in yaml.safe_load(path.read_text()) or ():
         key, sep, value = str(item).lstrip("+~").partition("=")
-        if sep and not key.startswith("hydra"):
+        if sep and not key.startswith("hydra") and key not in LOCATION_KEYS:
             values[key] = value
     return values
 
