@@ -2,12 +2,14 @@
 
     .venv/bin/python recipes/diffusion/train.py --config-name=quick run_dir=runs/diffusion-quick
 
-1. First stage (shared by the diffusion recipes, cached in ``run_dir/proposer``): scripted-
-   expert demonstrations and proposer pretraining, or ``proposer.path``.
-2. Acting: every decision the proposer proposes K chunks per AUV and executes candidate 0's
-   first action (the K candidates are i.i.d. draws, so this is one sample of the proposer),
-   re-planned every decision. A ``Collector`` runs it for ``collector.total_frames`` frames:
-   its training-time metrics and frames/s (nothing is trained after the first stage).
+1. First stage (shared by the diffusion recipes and sweep jobs: one cached artefact per
+   first-stage values in ``proposer.cache_dir``, ``torchrl_auv.training.first_stage``):
+   scripted-expert demonstrations, proposer pretraining and DAgger rounds; or ``proposer.path``.
+2. Acting: every decision the proposer proposes ``proposer.alone_candidates`` chunks per AUV
+   and executes the first action of their medoid (``proposer.alone_pick=medoid``; ``first``:
+   candidate 0, one sample of the proposer), re-planned every decision. A ``Collector`` runs it for
+   ``collector.total_frames`` frames: its training-time metrics and frames/s (nothing is
+   trained after the first stage).
 3. Evaluation on held-out seeds: the proposer next to the scripted expert and random actions.
 """
 
@@ -16,7 +18,7 @@ from __future__ import annotations
 import hydra
 from omegaconf import DictConfig
 
-from torchrl_auv import training
+from torchrl_auv import report, training
 from torchrl_auv.training import diffusion
 
 
@@ -24,9 +26,12 @@ from torchrl_auv.training import diffusion
 def main(cfg: DictConfig) -> None:
     run_dir = training.start_run(cfg)  # checks every value before any work
 
-    # 1. first stage: a pretrained proposer (cached in run_dir/proposer, or proposer.path)
-    proposer = diffusion.proposer_from_config(run_dir, cfg).to(cfg.device)
-    policy = diffusion.ProposerAlone(proposer)
+    # 1. first stage: a pretrained proposer (one cached artefact per first-stage values in
+    #    proposer.cache_dir, shared by every recipe and sweep job; or proposer.path)
+    stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
+    proposer = stage.proposer.to(cfg.device)
+    policy = diffusion.proposer_alone(proposer, cfg.proposer.alone_pick,
+                                      num_candidates=cfg.proposer.alone_candidates)  # fmt: skip
 
     # 2. run it (checkpoint: the frame count; the proposer itself is cached by the first stage)
     env = training.env_from_config(cfg, history=cfg.proposer.history)
@@ -39,7 +44,7 @@ def main(cfg: DictConfig) -> None:
     for data in collector if remaining > 0 else ():
         progress["frames"] += data.numel()
         tracker.step(data, {})
-    facts = tracker.finish(collector)
+    facts = {**stage.facts, **tracker.finish(collector)}
 
     # 3. evaluation on held-out seeds
     policies = {"diffusion": lambda _: policy, **training.reference_policies()}

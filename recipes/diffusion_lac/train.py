@@ -2,8 +2,9 @@
 
     .venv/bin/python recipes/diffusion_lac/train.py --config-name=quick run_dir=runs/dlac-quick
 
-1. First stage (shared by the diffusion recipes, cached in ``run_dir/proposer``): scripted-
-   expert demonstrations and proposer pretraining, or ``proposer.path``.
+1. First stage (one cached artefact per first-stage values in ``proposer.cache_dir``, shared
+   by the diffusion recipes and sweep jobs): scripted-expert demonstrations, proposer
+   pretraining and DAgger rounds, or ``proposer.path``.
 2. Acting: the proposer proposes K action chunks per AUV; the Lyapunov critic scores their
    first actions and the actor's own action; the lowest L is executed.
 3. Training: ``LyapunovActorCriticLoss`` (actor, Lyapunov critic, dual variables lambda and
@@ -51,8 +52,10 @@ def main(cfg: DictConfig) -> None:
     run_dir = training.start_run(cfg)  # checks every value before any work
     advisor = make_advisor(cfg.advisor)
 
-    # 1. first stage: a pretrained proposer (cached in run_dir/proposer, or proposer.path)
-    proposer = diffusion.proposer_from_config(run_dir, cfg).to(cfg.device)
+    # 1. first stage: a pretrained proposer (one cached artefact per first-stage values in
+    #    proposer.cache_dir, shared by every recipe and sweep job; or proposer.path)
+    stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
+    proposer = stage.proposer.to(cfg.device)
 
     # 2. env, actor, Lyapunov critic, loss, the proposer-selector policy
     env = training.env_from_config(cfg, history=cfg.proposer.history)
@@ -104,10 +107,13 @@ def main(cfg: DictConfig) -> None:
         metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS}
         metrics["train/form_index"] = advisors.FORM_ORDER.index(loss.spec.form)
         tracker.step(data, metrics, loss.spec)
-    facts = tracker.finish(collector)
+    facts = {**stage.facts, **tracker.finish(collector)}
 
     # 4. evaluation on held-out seeds
-    policies = diffusion.evaluation_policies("diffusion_lac", policy, actor, proposer)
+    policies = diffusion.evaluation_policies(
+        "diffusion_lac", policy, actor, proposer, pick=cfg.proposer.alone_pick,
+        alone_candidates=cfg.proposer.alone_candidates,
+    )
     policies.update(training.reference_policies())
     facts["gradient updates"] = progress["updates"]
     facts["Lyapunov spec at the end"] = f"{loss.spec.form}, alpha {loss.spec.alpha:g}"

@@ -3,8 +3,9 @@
 
     .venv/bin/python recipes/diffusion_rl/train.py --config-name=quick run_dir=runs/drl-quick
 
-1. First stage (shared by the diffusion recipes, cached in ``run_dir/proposer``): scripted-
-   expert demonstrations and proposer pretraining, or ``proposer.path``.
+1. First stage (one cached artefact per first-stage values in ``proposer.cache_dir``, shared
+   by the diffusion recipes and sweep jobs): scripted-expert demonstrations, proposer
+   pretraining and DAgger rounds, or ``proposer.path``.
 2. Acting: the proposer proposes K action chunks per AUV; the Q critic (the min over SAC's twin
    Q networks, ``QEnsembleCritic.from_loss``) scores their first actions and the actor's own
    action; the highest Q is executed.
@@ -19,7 +20,7 @@ from __future__ import annotations
 import hydra
 from omegaconf import DictConfig
 
-from torchrl_auv import training
+from torchrl_auv import report, training
 from torchrl_auv.objectives import QEnsembleCritic
 from torchrl_auv.training import diffusion
 
@@ -30,8 +31,10 @@ LOGGED_LOSS_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy")
 def main(cfg: DictConfig) -> None:
     run_dir = training.start_run(cfg)  # checks every value before any work
 
-    # 1. first stage: a pretrained proposer (cached in run_dir/proposer, or proposer.path)
-    proposer = diffusion.proposer_from_config(run_dir, cfg).to(cfg.device)
+    # 1. first stage: a pretrained proposer (one cached artefact per first-stage values in
+    #    proposer.cache_dir, shared by every recipe and sweep job; or proposer.path)
+    stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
+    proposer = stage.proposer.to(cfg.device)
 
     # 2. env, actor, twin Q critics, SAC loss, the proposer-selector policy
     env = training.env_from_config(cfg, history=cfg.proposer.history)
@@ -67,10 +70,13 @@ def main(cfg: DictConfig) -> None:
         collector.update_policy_weights_()  # worker processes / Ray act with the new weights
         metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS}
         tracker.step(data, metrics)
-    facts = tracker.finish(collector)
+    facts = {**stage.facts, **tracker.finish(collector)}
 
     # 4. evaluation on held-out seeds
-    policies = diffusion.evaluation_policies("diffusion_rl", policy, actor, proposer)
+    policies = diffusion.evaluation_policies(
+        "diffusion_rl", policy, actor, proposer, pick=cfg.proposer.alone_pick,
+        alone_candidates=cfg.proposer.alone_candidates,
+    )
     policies.update(training.reference_policies())
     facts["gradient updates"] = progress["updates"]
     summary = training.finish_run(

@@ -19,6 +19,7 @@ TINY = [
     "proposer.demo_episodes=2",
     "proposer.demo_steps=30",
     "proposer.pretrain_steps=20",
+    "proposer.dagger_steps=10",
     "proposer.num_inference_steps=2",
     "eval.steps=10",
     "logger.backend=",
@@ -27,8 +28,12 @@ RL_TINY = ["optim.updates_per_batch=2"]
 
 
 def _run(recipe: str, run_dir: Path, *overrides: str) -> subprocess.CompletedProcess:
+    """The recipe with the tiny overrides; the first-stage cache next to ``run_dir`` unless
+    an override says otherwise."""
+    cache = [] if any(o.startswith("proposer.cache_dir=") for o in overrides) else [
+        f"proposer.cache_dir={run_dir.parent / 'first_stage'}"]  # fmt: skip
     command = [sys.executable, f"recipes/{recipe}/train.py", *TINY, f"run_dir={run_dir}",
-               *overrides]  # fmt: skip
+               *cache, *overrides]  # fmt: skip
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
     return subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True,
                           timeout=300)  # fmt: skip
@@ -44,9 +49,11 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
     run_dir = tmp_path / "run"
     result = _run(recipe, run_dir, *([] if recipe == "diffusion" else RL_TINY))
     assert result.returncode == 0, result.stderr[-3000:]
-    # the first stage is cached in the run folder
-    assert (run_dir / "proposer" / "proposer.pt").exists()
-    assert (run_dir / "demonstrations").is_dir()
+    # the first stage is one cached artefact beside the run, named in the summary
+    (stage,) = (tmp_path / "first_stage").glob("ideal-s_surface-shannon-seed0-*")
+    assert (stage / "proposer.pt").exists() and (stage / "demonstrations").is_dir()
+    assert (stage / "loss.png").stat().st_size > 5_000  # Fig. 4 material
+    assert f"first stage: {stage} (built" in (run_dir / "summary.md").read_text()
     policies = [row["policy"] for row in _eval_rows(run_dir)]
     assert policies[0] == recipe and policies[-2:] == ["expert", "random"]
     if recipe != "diffusion":  # the proposer alone, the actor alone, every rank (K=5 + actor)
@@ -68,15 +75,27 @@ def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
     assert "plot: " in result.stdout
 
 
-def test_a_given_proposer_is_reused_and_a_missing_one_is_an_error(tmp_path):
-    first = tmp_path / "first"
-    assert _run("diffusion", first).returncode == 0
-    proposer = first / "proposer" / "proposer.pt"
-    second = tmp_path / "second"
-    result = _run("diffusion", second, f"proposer.path={proposer}")
-    assert result.returncode == 0, result.stderr[-3000:]
-    assert not (second / "demonstrations").exists()  # no new demonstrations
-    result = _run("diffusion", tmp_path / "third", f"proposer.path={tmp_path}/none.pt")
+def test_every_recipe_with_the_same_values_reuses_one_first_stage(tmp_path):
+    """diffusion builds the first stage, diffusion_rl with the same values reuses it (other
+    acting values included), other values build their own; proposer.path reuses a file and
+    a missing one is an error."""
+    cache = tmp_path / "cache"
+    first = _run("diffusion", tmp_path / "first", f"proposer.cache_dir={cache}")
+    assert first.returncode == 0, first.stderr[-3000:]
+    (stage,) = cache.glob("ideal-*")
+    second = _run("diffusion_rl", tmp_path / "second", f"proposer.cache_dir={cache}",
+                  "proposer.num_candidates=3", *RL_TINY)  # fmt: skip
+    assert second.returncode == 0, second.stderr[-3000:]
+    assert f"first stage: {stage} (reused" in (tmp_path / "second" / "summary.md").read_text()
+    assert len(list(cache.glob("ideal-*"))) == 1
+    other = _run("diffusion", tmp_path / "third", f"proposer.cache_dir={cache}", "seed=1")
+    assert other.returncode == 0, other.stderr[-3000:]
+    assert len(list(cache.glob("ideal-*"))) == 2
+    given = _run("diffusion", tmp_path / "fourth", f"proposer.path={stage / 'proposer.pt'}",
+                 f"proposer.cache_dir={tmp_path / 'unused'}")  # fmt: skip
+    assert given.returncode == 0, given.stderr[-3000:]
+    assert not (tmp_path / "unused").exists()  # nothing built
+    result = _run("diffusion", tmp_path / "fifth", f"proposer.path={tmp_path}/none.pt")
     assert result.returncode != 0 and "proposer.path" in result.stderr
 
 

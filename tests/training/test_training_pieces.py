@@ -159,6 +159,6 @@ def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
                     "num_inference_steps": 2, "sampler": "ddim", "hidden": 8,
                     "demo_sea_state": "ideal"}  # fmt: skip
     cfg.proposer = proposer_cfg
-    assert diffusion.proposer_from_config(tmp_path, cfg).compile is False
+    assert diffusion.proposer_from_config(cfg).compile is False
     cfg.proposer.compile = True
-    assert diffusion.proposer_from_config(tmp_path, cfg).compile is True
+    assert diffusion.proposer_from_config(cfg).compile is True

@@ -6,6 +6,7 @@ factory to build your own pipeline.
 
 from __future__ import annotations
 
+from torchrl_auv.training.artefacts import ArtefactCache, values_key
 from torchrl_auv.training.checkpointing import (
     ProgressState,
     SpecState,
@@ -38,6 +39,13 @@ from torchrl_auv.training.factories import (
     make_sac_loss,
     select_for_replay,
 )
+from torchrl_auv.training.first_stage import (
+    FIRST_STAGE_VERSION,
+    FirstStage,
+    build_first_stage,
+    first_stage_from_config,
+    first_stage_values,
+)
 from torchrl_auv.training.run import (
     RunTracker,
     batch_metrics,
@@ -57,13 +65,17 @@ from torchrl_auv.training.summary import write_eval, write_summary
 
 __all__ = [
     "COLLECTOR_BACKENDS",
+    "FIRST_STAGE_VERSION",
     "POLICIES",
     "REPLAY_KEYS",
+    "ArtefactCache",
+    "FirstStage",
     "ProgressState",
     "RunTracker",
     "SpecState",
     "batch_metrics",
     "buffer_from_config",
+    "build_first_stage",
     "bytes_per_frame",
     "check_choices",
     "check_config",
@@ -75,6 +87,8 @@ __all__ = [
     "evaluate",
     "exit_policy",
     "finish_run",
+    "first_stage_from_config",
+    "first_stage_values",
     "gradient_step",
     "log_metrics",
     "logger_from_config",
@@ -94,6 +108,7 @@ __all__ = [
     "sac_optimisers",
     "select_for_replay",
     "start_run",
+    "values_key",
     "write_eval",
     "write_summary",
 ]

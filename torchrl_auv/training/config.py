@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from torchrl_auv.control import available_controllers
+from torchrl_auv.modules import CANDIDATE_PICKS, SAMPLERS
+from torchrl_auv.objectives import LR_SCHEDULES
 from torchrl_auv.objectives.lyapunov_forms import FORMS
 from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
@@ -26,6 +28,8 @@ POSITIVE_INTEGERS = (
     "env.num_envs",
     "replay_buffer.size",
     "replay_buffer.batch_size",
+    "proposer.num_candidates",
+    "proposer.alone_candidates",
 )
 
 
@@ -39,6 +43,9 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "advisor.backend": ("rules", "fixed", "openai"),
         "advisor.form": tuple(sorted(FORMS)),
         "device": ("cpu", "cuda"),
+        "proposer.sampler": SAMPLERS,
+        "proposer.alone_pick": CANDIDATE_PICKS,
+        "proposer.lr_schedule": LR_SCHEDULES,
     }
 
 

@@ -1,5 +1,6 @@
-"""Factories of the diffusion recipes: the history env, the first stage (demonstrations and
-proposer pretraining, cached), the proposer-selector policies and the Lyapunov loss.
+"""Factories of the diffusion recipes: the history env, the pretrained proposer (the first
+stage, :mod:`~torchrl_auv.training.first_stage`), the proposer-selector policies and the
+Lyapunov loss.
 
 Keys on the ``("agents", ...)`` layout: the proposer reads ``("agents", "observation")`` and
 ``("agents", "history", ...)`` and writes ``("agents", "proposer", "candidates")``
@@ -9,7 +10,7 @@ selector writes the executed ``("agents", "action")`` and ``("agents", "selector
 Examples:
     >>> env = make_history_env("ideal", seed=0, num_envs=2, history=3)
     >>> proposer = DiffusionProposer.for_env(env, num_inference_steps=2, horizon=4)
-    >>> td = ProposerAlone(proposer)(env.reset())
+    >>> td = proposer_alone(proposer)(env.reset())
     >>> td["agents", "proposer", "candidates"].shape, td["agents", "action"].shape
     (torch.Size([2, 2, 5, 4, 3]), torch.Size([2, 2, 3]))
 """
@@ -18,7 +19,6 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from pathlib import Path
 
 import torch
 from tensordict import TensorDict, TensorDictBase
@@ -27,10 +27,8 @@ from torchrl.envs import TransformedEnv
 from torchrl.modules import ProbabilisticActor
 
 from torchrl_auv.envs import StateActionHistory
-from torchrl_auv.envs.demonstrations import collect_demonstrations, save_demonstrations
-from torchrl_auv.modules import DiffusionProposer
+from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, LyapunovSpec
-from torchrl_auv.objectives import pretrain_proposer as pretrain
 from torchrl_auv.training.factories import (
     ACTION,
     AGENTS,
@@ -39,11 +37,11 @@ from torchrl_auv.training.factories import (
     _dims,
     make_env,
 )
+from torchrl_auv.training.first_stage import first_stage_from_config
 
 __all__ = [
     "ACTOR_ACTION",
     "LYAPUNOV_RAW",
-    "ProposerAlone",
     "RankedCandidate",
     "acting_actor",
     "evaluation_policies",
@@ -53,7 +51,7 @@ __all__ = [
     "make_lac_loss",
     "make_lyapunov_critic",
     "make_selection_policy",
-    "prepare_proposer",
+    "proposer_alone",
     "proposer_from_config",
 ]
 
@@ -71,87 +69,28 @@ def make_history_env(sea_state: str = "ideal", *, history: int = 10, **env_kwarg
     )
 
 
-def prepare_proposer(
-    run_dir: str | Path,
+def proposer_from_config(cfg, *, plot_loss=None) -> DiffusionProposer:
+    """The pretrained proposer of a recipe config: the proposer of
+    :func:`~torchrl_auv.training.first_stage_from_config` (cached artefact, or
+    ``proposer.path``), with the config's acting values (``proposer.compile`` included)."""
+    return first_stage_from_config(cfg, plot_loss=plot_loss).proposer
+
+
+def evaluation_policies(
+    name: str,
+    policy,
+    actor,
+    proposer: DiffusionProposer,
     *,
-    path: str | None = None,
-    episodes: int = 4,
-    max_steps: int = 1000,
-    steps: int = 2000,
-    batch_size: int = 32,
-    lr: float = 1e-4,
-    num_candidates: int = 5,
-    horizon: int = 8,
-    history: int = 10,
-    num_inference_steps: int = 50,
-    sampler: str = "ddpm",
-    hidden: int = 128,
-    sea_state: str = "ideal",
-    controller: str = "s_surface",
-    rate_model: str = "shannon",
-    seed: int = 0,
-) -> DiffusionProposer:
-    """The first stage the diffusion recipes share: a pretrained proposer.
-
-    Loads ``path`` when given; else ``run_dir/proposer/proposer.pt`` when an earlier run (or
-    an interrupted one) left it; else collects ``episodes`` scripted-expert episodes of
-    ``max_steps`` decisions (``run_dir/demonstrations``), pretrains a proposer on them for
-    ``steps`` updates (overridden decisions left out) and saves it there.
-    """
-    cached = Path(run_dir) / "proposer" / "proposer.pt"
-    for candidate in (Path(path) if path else None, cached):
-        if candidate is not None and candidate.exists():
-            log.info("proposer: loading %s", candidate)
-            return DiffusionProposer.load(candidate)
-    if path:
-        raise FileNotFoundError(f"proposer.path {path} does not exist")
-    data = collect_demonstrations(
-        "data_collection", episodes=episodes, max_steps=max_steps, horizon=horizon,
-        history=history, sea_state=sea_state, controller=controller, seed=seed,
-        rate_model=rate_model,
-    )  # fmt: skip
-    save_demonstrations(data, Path(run_dir) / "demonstrations")
-    obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
-    proposer = DiffusionProposer(
-        obs_dim + history * (obs_dim + act_dim + 1), act_dim, state_key=OBSERVATION,
-        history_key=(AGENTS, "history"), num_candidates=num_candidates, horizon=horizon,
-        num_inference_steps=num_inference_steps, sampler=sampler,
-        noise_model_kwargs={"hidden": hidden},
-    )  # fmt: skip
-    # the dataset's keys are flat ("observation", ("history", ...)): nest them like the env's
-    nested = data.empty()
-    nested[OBSERVATION] = data["observation"]
-    nested[AGENTS, "history"] = data["history"]
-    for key in ("action_chunk", "action_chunk_mask", "overridden"):
-        nested[key] = data[key]
-    result = pretrain(proposer, nested, steps=steps, batch_size=batch_size, lr=lr, seed=seed,
-                      log_every=max(1, steps // 20), eval_every=max(1, steps // 5))  # fmt: skip
-    log.info("proposer: pretrained %d steps, held-out loss %.3f", steps, result.heldout_loss)
-    cached.parent.mkdir(parents=True, exist_ok=True)
-    proposer.save(cached)
-    return proposer
-
-
-def proposer_from_config(run_dir: str | Path, cfg) -> DiffusionProposer:
-    """:func:`prepare_proposer` with a recipe's ``proposer`` group (and ``env``, ``seed``);
-    ``proposer.compile`` (default false) compiles its denoising step for acting."""
-    p = cfg.proposer
-    proposer = prepare_proposer(
-        run_dir, path=p.path, episodes=p.demo_episodes, max_steps=p.demo_steps,
-        steps=p.pretrain_steps, batch_size=p.batch_size, lr=p.lr, num_candidates=p.num_candidates,
-        horizon=p.horizon, history=p.history, num_inference_steps=p.num_inference_steps,
-        sampler=p.sampler, hidden=p.hidden, sea_state=p.demo_sea_state,
-        controller=cfg.env.controller, rate_model=cfg.env.rate_model, seed=cfg.seed,
-    )  # fmt: skip
-    proposer.compile = bool(p.get("compile", False))
-    return proposer
-
-
-def evaluation_policies(name: str, policy, actor, proposer: DiffusionProposer) -> dict:
+    pick: str = "medoid",
+    alone_candidates: int | None = None,
+) -> dict:
     """The diffusion recipes' evaluation rows: the framework (``name``), each rank of its
     selector's ranking executed on its own (``OA`` = rank 0, ``CA1`` ... over the K candidates
-    and, with an actor, its own action), the actor alone (``RL``) and the proposer alone."""
-    rows = {name: lambda _: policy, "proposer alone": lambda _: ProposerAlone(proposer)}
+    and, with an actor, its own action), the actor alone (``RL``) and the proposer alone
+    (:func:`proposer_alone` with ``pick`` and ``alone_candidates``)."""
+    alone = proposer_alone(proposer, pick, num_candidates=alone_candidates)
+    rows = {name: lambda _: policy, "proposer alone": lambda _: alone}
     if actor is not None:
         rows["RL"] = lambda _: actor
     ranks = proposer.num_candidates + (actor is not None)
@@ -160,19 +99,13 @@ def evaluation_policies(name: str, policy, actor, proposer: DiffusionProposer) -
     return rows
 
 
-class ProposerAlone(TensorDictModuleBase):
-    """The proposer acting alone: candidate 0's first action, re-planned every decision (the
-    candidates are i.i.d. samples, so candidate 0 is one random draw of the proposer)."""
-
-    def __init__(self, proposer: DiffusionProposer) -> None:
-        super().__init__()
-        self.proposer = proposer
-        self.in_keys, self.out_keys = proposer.in_keys, [*proposer.out_keys, ACTION]
-
-    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
-        self.proposer(tensordict)
-        first = tensordict[AGENTS, "proposer", "first_actions"]
-        return tensordict.set(ACTION, first[..., 0, :])
+def proposer_alone(
+    proposer: DiffusionProposer, pick: str = "medoid", *, num_candidates: int | None = None
+) -> ProposerAlone:
+    """The proposer acting alone on the agents layout
+    (:class:`~torchrl_auv.modules.ProposerAlone`: the ``pick`` candidate's first action,
+    ``"medoid"`` or ``"first"``, of ``num_candidates`` draws, re-planned every decision)."""
+    return ProposerAlone(proposer, pick, action_key=ACTION, num_candidates=num_candidates)
 
 
 def feedback_batch(data: TensorDictBase) -> TensorDict:

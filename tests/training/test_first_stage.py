@@ -1,0 +1,99 @@
+"""The first stage as one cached artefact: built once per values, reused by any recipe config
+with the same values, rebuilt for other values, refused when stale; acting values do not
+rebuild it; the artefact holds the Fig. 4 loss curve."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+import torch
+from omegaconf import OmegaConf
+
+from torchrl_auv.envs.demonstrations import load_demonstrations
+from torchrl_auv.modules import DiffusionProposer
+from torchrl_auv.training import first_stage_from_config, first_stage_values
+
+
+def _cfg(cache_dir, **proposer):
+    return OmegaConf.create({
+        "seed": 0,
+        "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
+        "proposer": {"cache_dir": str(cache_dir), "path": None, "demo_sea_state": "ideal",
+                     "demo_batches": 1, "demo_episodes": 1, "demo_steps": 12, "demo_workers": 1,
+                     "horizon": 4, "history": 2, "hidden": 16, "cond_dim": 16, "depth": 1,
+                     "pretrain_steps": 4, "batch_size": 8, "num_candidates": 2,
+                     "num_inference_steps": 2, "sampler": "ddim", "dagger_rounds": 1,
+                     "dagger_batches": 1, "dagger_inference_steps": 2, "dagger_steps": 3,
+                     **proposer},
+    })  # fmt: skip
+
+
+def test_built_once_then_reused_with_acting_values_applied(tmp_path):
+    first = first_stage_from_config(_cfg(tmp_path))
+    assert first.built and first.folder.parent == tmp_path
+    assert first.folder.name.startswith("ideal-s_surface-shannon-seed0-")
+    for name in ("proposer.pt", "metrics.json", "pretrain_loss.csv", "values.json"):
+        assert (first.folder / name).exists(), name
+    assert (first.folder / "demonstrations" / "metadata.json").exists()
+    with open(first.folder / "pretrain_loss.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert {row["split"] for row in rows} == {"train", "heldout"}
+    assert {row["phase"] for row in rows} == {"pretraining", "dagger1"}
+    steps = [int(row["step"]) for row in rows if row["split"] == "train"]
+    assert steps == sorted(steps) and steps[-1] == 4 + 3  # DAgger's steps follow pretraining's
+    metrics = json.loads((first.folder / "metrics.json").read_text())
+    assert metrics["samples"] == 24  # 12 decisions x 2 AUVs
+    assert metrics["dagger1_samples"] == 24 and metrics["training_samples"] == 48
+    # before DAgger; DAgger fine-tunes the weights under the standardisation fitted first
+    before = DiffusionProposer.load(first.folder / "proposer_bc.pt")
+    after = DiffusionProposer.load(first.folder / "proposer.pt")
+    torch.testing.assert_close(before.state_loc, after.state_loc)
+    assert not torch.equal(before.state_loc, torch.zeros_like(before.state_loc))
+    assert (first.folder / "dagger1" / "metadata.json").exists()
+    # the DAgger round runs on new scenes: its first observations are not the expert's
+    demos, visited = (load_demonstrations(first.folder / name)[:] for name in
+                      ("demonstrations", "dagger1"))  # fmt: skip
+    assert not torch.allclose(demos["observation"][demos["step"] == 0],
+                              visited["observation"][visited["step"] == 0])  # fmt: skip
+    # other acting values: the same artefact, the values applied to the loaded proposer
+    again = first_stage_from_config(_cfg(tmp_path, num_candidates=7, sampler="ddpm", compile=True))
+    assert not again.built and again.folder == first.folder
+    assert again.proposer.num_candidates == 7 and again.proposer.sampler == "ddpm"
+    assert again.proposer.compile is True
+    assert "reused" in again.facts["first stage"]
+    # a value that shapes the weights: a new artefact
+    other = first_stage_from_config(_cfg(tmp_path, pretrain_steps=5))
+    assert other.built and other.folder != first.folder
+
+
+def test_proposer_path_is_checked_against_the_config(tmp_path):
+    built = first_stage_from_config(_cfg(tmp_path / "cache"))
+    path = built.folder / "proposer.pt"
+    same = first_stage_from_config(_cfg(tmp_path / "elsewhere", path=str(path)))
+    assert same.folder is None and same.proposer.num_candidates == 2
+    assert not (tmp_path / "elsewhere").exists()  # nothing built
+    with pytest.raises(ValueError, match=r"pretraining\.pretrain_steps"):
+        first_stage_from_config(_cfg(tmp_path / "elsewhere", path=str(path), pretrain_steps=9))
+    with pytest.raises(FileNotFoundError, match=r"proposer\.path"):
+        first_stage_from_config(_cfg(tmp_path, path=str(tmp_path / "none.pt")))
+
+
+def test_values_name_sea_controller_rate_and_seed():
+    cfg = {"seed": 3, "env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
+           "proposer": {"demo_sea_state": "es", "lr": 5e-4}}  # fmt: skip
+    values = first_stage_values(cfg)
+    assert (values["sea_state"], values["controller"], values["rate_model"], values["seed"]) == (
+        "es", "pid", "paper", 3)  # fmt: skip
+    assert values["pretraining"]["lr"] == 5e-4
+    assert "num_candidates" not in json.dumps(values)  # acting values are not part of the key
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("dagger_rounds", -1), ("demo_episodes", 0), ("pretrain_steps", 2.5), ("dagger_lr", 0)],
+)
+def test_bad_first_stage_values_are_refused_naming_the_key(key, value):
+    with pytest.raises(ValueError, match=rf"proposer\.{key} must be"):
+        first_stage_values({"proposer": {key: value}})

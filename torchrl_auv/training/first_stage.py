@@ -1,0 +1,371 @@
+"""The first stage of the diffusion recipes: expert demonstrations, proposer pretraining and
+DAgger rounds, one cached artefact per set of values (paper §III-A, §IV-B, Fig. 4).
+
+Every diffusion recipe (``diffusion``, ``diffusion_rl``, ``diffusion_lac``) and every sweep job
+starts from a pretrained :class:`~torchrl_auv.modules.DiffusionProposer`. It is built in
+three steps:
+
+1. **Demonstrations**: the scripted expert in ``demo_batches`` batches of ``demo_episodes``
+   scenes of ``demo_steps`` decisions (``demo_workers`` processes).
+2. **Pretraining** on them (behaviour cloning: the denoising loss, ``pretrain_steps``).
+3. **DAgger** (Ross, Gordon and Bagnell 2011), ``dagger_rounds`` times: the proposer acts
+   alone (the medoid of K = 5 candidates, ``dagger_inference_steps`` DDIM steps) in
+   ``dagger_batches`` batches of new scenes, the expert labels every state it visits (the
+   expert decides from the observation alone, so it can label any state), the samples join
+   the data and the proposer is trained on the whole for ``dagger_steps`` more steps at
+   ``dagger_lr``. Behaviour cloning alone sees only the expert's states; a proposer that
+   strays from them in a 1 m/s current meets states it was never shown how to recover from
+   and drifts out of the area (measured in ``recipes/README.md``).
+
+The artefact is keyed by everything that shapes its weights (:func:`first_stage_values`: sea
+state, controller, rate model, seed, the demonstrations, the noise model, the pretraining and
+the DAgger rounds) and lives in ``proposer.cache_dir`` (default ``${run_root}/first_stage``)
+under ``<sea>-<controller>-<rate model>-seed<seed>-<hash>``
+(:class:`~torchrl_auv.training.artefacts.ArtefactCache`): jobs with the same values reuse it
+in seconds, other values build their own, a folder whose stored values differ is refused.
+The acting values (``num_candidates``, ``num_inference_steps``, ``sampler``, ``compile``, and
+the recipes' ``alone_pick``) do not change the weights and are applied after loading, so a
+sweep over them shares one artefact.
+
+The folder holds ``proposer.pt`` (final), ``proposer_bc.pt`` (after pretraining, before
+DAgger, when there are rounds), ``demonstrations/`` and ``dagger<r>/`` (TorchRL replay-buffer
+storage), ``pretrain_loss.csv`` (the training and held-out denoising loss against the
+optimiser step, per phase: the paper's Fig. 4; the held-out samples are whole scenes),
+``loss.png`` when a plot function is given, ``metrics.json`` (sample counts, losses, wall
+times) and ``values.json``.
+
+Examples:
+    >>> values = first_stage_values({"seed": 0, "env": {"controller": "pid",
+    ...     "rate_model": "paper"}, "proposer": {"demo_sea_state": "es"}})
+    >>> values["sea_state"], values["controller"], values["rate_model"], values["seed"]
+    ('es', 'pid', 'paper', 0)
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import json
+import logging
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import torch
+from omegaconf import DictConfig, OmegaConf
+from tensordict import TensorDictBase
+
+from torchrl_auv.envs.demonstrations import collect_demonstration_batches, save_demonstrations
+from torchrl_auv.modules import DiffusionProposer, ProposerAlone
+from torchrl_auv.objectives import pretrain_proposer
+from torchrl_auv.training.artefacts import VALUES_FILE, ArtefactCache, check_values
+from torchrl_auv.training.factories import AGENTS, OBSERVATION
+
+__all__ = [
+    "FIRST_STAGE_DEFAULTS",
+    "FIRST_STAGE_VERSION",
+    "FirstStage",
+    "build_first_stage",
+    "first_stage_from_config",
+    "first_stage_values",
+]
+
+log = logging.getLogger(__name__)
+
+#: Bumped whenever the way a first stage is built changes: older artefacts are then rebuilt.
+FIRST_STAGE_VERSION = 3
+
+#: The ``proposer`` keys a first stage reads, with the defaults used when a config lacks one
+#: (the paper preset's values: ``recipes/*/paper.yaml`` explain each departure from Table I).
+FIRST_STAGE_DEFAULTS = {
+    "demo_batches": 2,
+    "demo_episodes": 48,
+    "demo_steps": 1000,
+    "horizon": 8,
+    "history": 10,
+    "noise_model": "mlp",
+    "hidden": 256,
+    "cond_dim": 128,
+    "depth": 3,
+    "schedule": "linear",
+    "num_train_steps": 1000,
+    "pretrain_steps": 10000,
+    "batch_size": 256,
+    "lr": 1.0e-3,
+    "lr_schedule": "cosine",
+    "weight_decay": 0.0,
+    "ema_decay": None,
+    "normalize_state": True,
+    "heldout_fraction": 0.1,
+    "dagger_rounds": 1,
+    "dagger_batches": 2,
+    "dagger_inference_steps": 10,
+    "dagger_steps": 4000,
+    "dagger_lr": 3.0e-4,
+}
+#: The acting keys, applied to a loaded proposer (they do not change its weights).
+ACTING_DEFAULTS = {"num_candidates": 5, "num_inference_steps": 50, "sampler": "ddpm",
+                   "compile": False}  # fmt: skip
+
+
+def _plain(cfg) -> dict:
+    if isinstance(cfg, DictConfig):
+        return OmegaConf.to_container(cfg, resolve=True)
+    return dict(cfg)
+
+
+#: First-stage keys that must be ints >= 1, and those that may be 0.
+_COUNTS = ("demo_batches", "demo_episodes", "demo_steps", "horizon", "hidden", "cond_dim",
+           "depth", "num_train_steps", "pretrain_steps", "batch_size", "dagger_batches",
+           "dagger_inference_steps", "dagger_steps")  # fmt: skip
+_COUNTS_OR_ZERO = ("history", "dagger_rounds")
+
+
+def _check(p: Mapping) -> None:
+    """Raise ``ValueError`` naming ``proposer.<key>`` for a first-stage value out of range."""
+    for key in _COUNTS + _COUNTS_OR_ZERO:
+        low = 0 if key in _COUNTS_OR_ZERO else 1
+        value = p[key]
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise ValueError(f"proposer.{key} must be an int >= {low}, got {value!r}")
+    for key in ("lr", "dagger_lr"):
+        if not (isinstance(p[key], int | float) and p[key] > 0):
+            raise ValueError(f"proposer.{key} must be a number > 0, got {p[key]!r}")
+    if not 0.0 <= p["heldout_fraction"] < 1.0:
+        raise ValueError(
+            f"proposer.heldout_fraction must be in [0, 1), got {p['heldout_fraction']!r}"
+        )
+
+
+def first_stage_values(cfg: Mapping | DictConfig) -> dict:
+    """What a first stage is keyed by, from a recipe config (``seed``, ``env.controller``,
+    ``env.rate_model`` and the ``proposer`` group; missing keys take
+    :data:`FIRST_STAGE_DEFAULTS`): a JSON-able dict, hashed for the artefact's folder."""
+    cfg = _plain(cfg)
+    p = {**FIRST_STAGE_DEFAULTS, **cfg.get("proposer", {})}
+    _check(p)
+    env = cfg.get("env", {})
+    pick = lambda *keys: {k: p[k] for k in keys}  # noqa: E731
+    return {
+        "version": FIRST_STAGE_VERSION,
+        "sea_state": p.get("demo_sea_state") or env.get("sea_state", "ideal"),
+        "controller": env.get("controller", "s_surface"),
+        "rate_model": env.get("rate_model", "shannon"),
+        "seed": int(cfg.get("seed", 0)),
+        "demonstrations": pick("demo_batches", "demo_episodes", "demo_steps", "horizon", "history"),
+        "model": pick("noise_model", "hidden", "cond_dim", "depth", "schedule", "num_train_steps"),
+        "pretraining": pick(
+            "pretrain_steps",
+            "batch_size",
+            "lr",
+            "lr_schedule",
+            "weight_decay",
+            "ema_decay",
+            "normalize_state",
+            "heldout_fraction",
+        ),
+        "dagger": pick(
+            "dagger_rounds", "dagger_batches", "dagger_inference_steps", "dagger_steps", "dagger_lr"
+        ),
+    }
+
+
+def _noise_model_kwargs(model: Mapping) -> dict:
+    if model["noise_model"] == "mlp":
+        return {"hidden": model["hidden"], "cond_dim": model["cond_dim"], "depth": model["depth"]}
+    return {"channels": (model["hidden"],) * model["depth"], "cond_dim": model["cond_dim"]}
+
+
+def _dagger_policy(proposer: DiffusionProposer, env) -> ProposerAlone:
+    """The proposer acting alone in a demonstration env (picklable through ``partial``)."""
+    return ProposerAlone(proposer, "medoid", action_key=env.base_env.agent_action_key)
+
+
+def _nested(data: TensorDictBase) -> TensorDictBase:
+    """Demonstration samples with the env's keys (the dataset's are flat: ``observation``,
+    ``("history", ...)``)."""
+    nested = data.empty()
+    nested[OBSERVATION] = data["observation"]
+    nested[AGENTS, "history"] = data["history"]
+    for key in ("action_chunk", "action_chunk_mask", "overridden", "episode"):
+        nested[key] = data[key]
+    return nested
+
+
+def _append(data: TensorDictBase, more: TensorDictBase) -> TensorDictBase:
+    """``data`` and ``more`` as one dataset, ``more``'s episodes numbered after ``data``'s."""
+    more = more.exclude("executed")
+    more["episode"] = more["episode"] + int(data["episode"].max()) + 1
+    return torch.cat([data, more.select(*data.keys(True, True))])
+
+
+def build_first_stage(
+    folder: str | Path,
+    values: Mapping,
+    *,
+    workers: int = 1,
+    plot_loss: Callable | None = None,
+) -> dict:
+    """Collect the demonstrations, pretrain a proposer, run the DAgger rounds and write the
+    artefact into ``folder`` (module docstring). ``workers`` processes collect the batches
+    of scenes; ``plot_loss(steps, losses, path, heldout_steps=, heldout_losses=, phases=)``
+    (e.g. :func:`torchrl_auv.report.plot_pretraining_loss`) draws ``loss.png``. Returns the
+    metrics written to ``metrics.json``."""
+    folder = Path(folder)
+    demo, model, train = values["demonstrations"], values["model"], values["pretraining"]
+    dagger = values["dagger"]
+    collect = partial(
+        collect_demonstration_batches, workers=workers, seed=values["seed"],
+        env="data_collection", episodes=demo["demo_episodes"], max_steps=demo["demo_steps"],
+        horizon=demo["horizon"], history=demo["history"], sea_state=values["sea_state"],
+        controller=values["controller"], rate_model=values["rate_model"],
+    )  # fmt: skip
+    start = time.perf_counter()
+    data = collect(demo["demo_batches"])
+    metrics = {"samples": len(data), "overridden_samples": int(data["overridden"].sum()),
+               "demonstrations_s": time.perf_counter() - start}  # fmt: skip
+    save_demonstrations(data, folder / "demonstrations", metadata=dict(values))
+    obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
+    history = demo["history"]
+    proposer = DiffusionProposer(
+        obs_dim + history * (obs_dim + act_dim + 1), act_dim, state_key=OBSERVATION,
+        history_key=(AGENTS, "history"), horizon=demo["horizon"], noise_model=model["noise_model"],
+        noise_model_kwargs=_noise_model_kwargs(model), num_train_steps=model["num_train_steps"],
+        schedule=model["schedule"],
+    )  # fmt: skip
+    curve = {"phase": [], "step": [], "split": [], "loss": []}
+    phases: list[tuple[int, str]] = []
+
+    def fit(phase: str, steps: int, lr: float, first: bool) -> float:
+        """Train on ``data`` (fitting the state standardisation the first time); add the
+        curves to ``curve`` after the steps so far; return the held-out loss."""
+        offset = curve["step"][-1] if curve["step"] else 0
+        phases.append((offset, phase))
+        began = time.perf_counter()
+        with torch.random.fork_rng():  # the replay buffer's sampler draws from the global RNG
+            torch.manual_seed(values["seed"] + len(phases))
+            result = pretrain_proposer(
+                proposer, _nested(data), steps=steps, batch_size=train["batch_size"], lr=lr,
+                lr_schedule=train["lr_schedule"], weight_decay=train["weight_decay"],
+                ema_decay=train["ema_decay"], normalize_state=first and
+                train["normalize_state"], heldout_fraction=train["heldout_fraction"],
+                seed=values["seed"], log_every=max(1, steps // 100),
+                eval_every=max(1, steps // 10),
+            )  # fmt: skip
+        metrics[f"{phase}_s"] = time.perf_counter() - began
+        for split, steps_, losses in (
+            ("train", result.steps, result.losses),
+            ("heldout", result.heldout_steps, result.heldout_losses),
+        ):
+            for step, value in zip(steps_, losses, strict=True):
+                curve["phase"].append(phase)
+                curve["step"].append(offset + step)
+                curve["split"].append(split)
+                curve["loss"].append(value)
+        log.info("first stage: %s, %d samples, %d steps in %.0f s, held-out loss %.4f", phase,
+                 len(data), steps, metrics[f"{phase}_s"], result.heldout_loss)  # fmt: skip
+        return result.heldout_loss
+
+    metrics["pretraining_heldout_loss"] = fit("pretraining", train["pretrain_steps"],
+                                              train["lr"], first=True)  # fmt: skip
+    proposer.use_ema = train["ema_decay"] is not None
+    if dagger["dagger_rounds"]:
+        proposer.save(folder / "proposer_bc.pt")  # before DAgger: behaviour cloning alone
+    for r in range(1, dagger["dagger_rounds"] + 1):
+        actor = copy.deepcopy(proposer)
+        actor.configure_sampling(num_inference_steps=dagger["dagger_inference_steps"],
+                                 sampler="ddim")  # fmt: skip
+        start = time.perf_counter()
+        first_batch = demo["demo_batches"] + (r - 1) * dagger["dagger_batches"]
+        visited = collect(dagger["dagger_batches"], first_batch=first_batch,
+                          policy=partial(_dagger_policy, actor))  # fmt: skip
+        metrics[f"dagger{r}_collection_s"] = time.perf_counter() - start
+        metrics[f"dagger{r}_samples"] = len(visited)
+        save_demonstrations(visited, folder / f"dagger{r}", metadata={**values, "round": r})
+        data = _append(data, visited)
+        metrics[f"dagger{r}_heldout_loss"] = fit(f"dagger{r}", dagger["dagger_steps"],
+                                                 dagger["dagger_lr"], first=False)  # fmt: skip
+    proposer.save(folder / "proposer.pt")
+    with open(folder / "pretrain_loss.csv", "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(("step", "split", "loss", "phase"))
+        writer.writerows(zip(curve["step"], curve["split"], curve["loss"], curve["phase"],
+                             strict=True))  # fmt: skip
+    if plot_loss is not None:
+        split = [s == "train" for s in curve["split"]]
+        pick = lambda key, keep: [v for v, k in zip(curve[key], split, strict=True) if k == keep]  # noqa: E731
+        plot_loss(pick("step", True), pick("loss", True), folder / "loss.png",
+                  heldout_steps=pick("step", False), heldout_losses=pick("loss", False),
+                  phases=phases)  # fmt: skip
+    losses = [v for v, s in zip(curve["loss"], curve["split"], strict=True) if s == "train"]
+    metrics.update(final_training_loss=losses[-1], training_samples=len(data),
+                   heldout_loss=metrics[f"dagger{dagger['dagger_rounds']}_heldout_loss"]
+                   if dagger["dagger_rounds"] else metrics["pretraining_heldout_loss"])  # fmt: skip
+    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    return metrics
+
+
+@dataclass
+class FirstStage:
+    """A loaded first stage: the proposer, its folder (``None`` for a bare ``proposer.path``
+    file), whether this call built it, and facts for a run's summary."""
+
+    proposer: DiffusionProposer
+    folder: Path | None
+    built: bool
+    facts: dict = field(default_factory=dict)
+
+
+def _apply_acting(proposer: DiffusionProposer, p: Mapping) -> DiffusionProposer:
+    acting = {**ACTING_DEFAULTS, **{k: p[k] for k in ACTING_DEFAULTS if k in p}}
+    proposer.configure_sampling(num_candidates=acting["num_candidates"],
+                                num_inference_steps=acting["num_inference_steps"],
+                                sampler=acting["sampler"])  # fmt: skip
+    proposer.compile = bool(acting["compile"])
+    return proposer
+
+
+def first_stage_from_config(
+    cfg: Mapping | DictConfig, *, plot_loss: Callable | None = None
+) -> FirstStage:
+    """The recipes' first stage: ``proposer.path`` when given (a file; next to a
+    ``values.json`` its values must match the config's, else it is refused naming the keys),
+    else the cached artefact of :func:`first_stage_values` under ``proposer.cache_dir``, built
+    if missing (``proposer.demo_workers`` collection processes). The acting keys are applied
+    to the loaded proposer."""
+    plain = _plain(cfg)
+    p = plain.get("proposer", {})
+    values = first_stage_values(plain)
+    path = p.get("path")
+    if path:
+        path = Path(path)
+        if not path.exists():
+            raise FileNotFoundError(f"proposer.path {path} does not exist")
+        if (path.parent / VALUES_FILE).exists():
+            check_values(path.parent, values)
+        else:
+            log.warning("proposer.path %s has no %s beside it: its first-stage values cannot "
+                        "be checked against this config", path, VALUES_FILE)  # fmt: skip
+        proposer = _apply_acting(DiffusionProposer.load(path), p)
+        return FirstStage(proposer, None, False, {"first stage": f"{path} (proposer.path)"})
+    cache = ArtefactCache(p.get("cache_dir") or "runs/first_stage")
+    name = (
+        f"{values['sea_state']}-{values['controller']}-{values['rate_model']}-seed{values['seed']}"
+    )
+    start = time.perf_counter()
+    folder, built = cache.get_or_build(
+        name, values,
+        lambda into: build_first_stage(into, values, workers=int(p.get("demo_workers", 1)),
+                                       plot_loss=plot_loss),
+    )  # fmt: skip
+    seconds = time.perf_counter() - start
+    proposer = _apply_acting(DiffusionProposer.load(folder / "proposer.pt"), p)
+    metrics = json.loads((folder / "metrics.json").read_text())
+    facts = {
+        "first stage": f"{folder} ({'built' if built else 'reused'} in {seconds:.0f} s)",
+        "first stage held-out denoising loss": metrics["heldout_loss"],
+        "demonstration samples": metrics["samples"],
+    }
+    return FirstStage(proposer, folder, built, facts)
