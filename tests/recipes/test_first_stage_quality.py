@@ -43,11 +43,14 @@ def test_the_paper_preset_proposer_alone_imitates_the_expert_in_ves(tmp_path):
     assert float(alone["ssn"]) >= 0.6 * float(expert["ssn"]), (alone["ssn"], expert["ssn"])
     assert float(alone["terminated"]) == 0.0
     assert float(random["terminated"]) > 0  # the bar means something: random actions leave
-    # the same first-stage values, other acting and run values: reused in seconds
+    # the same first-stage values, other acting and run values: reused, not rebuilt (how long
+    # reuse takes is measured by benchmarks/bench_first_stage.py, not asserted here)
+    (folder,) = cache.glob("ves-*")
+    weights = (folder / "proposer.pt").stat().st_mtime_ns
     again = _diffusion(tmp_path / "again", cache, "collector.total_frames=100", "eval.steps=10",
                        "proposer.num_inference_steps=5", timeout=900)  # fmt: skip
     assert again.returncode == 0, again.stderr[-3000:]
     summary = (tmp_path / "again" / "summary.md").read_text()
-    seconds = float(re.search(r"first stage: .* \(reused in (\d+) s\)", summary).group(1))
-    assert seconds < 30
+    assert re.search(r"first stage: .* \(reused in \d+ s\)", summary), summary
+    assert (folder / "proposer.pt").stat().st_mtime_ns == weights
     assert len(list(cache.glob("ves-*"))) == 1

@@ -97,3 +97,22 @@ def test_values_name_sea_controller_rate_and_seed():
 def test_bad_first_stage_values_are_refused_naming_the_key(key, value):
     with pytest.raises(ValueError, match=rf"proposer\.{key} must be"):
         first_stage_values({"proposer": {key: value}})
+
+
+@pytest.mark.parametrize("recipe", ["diffusion", "diffusion_rl", "diffusion_lac"])
+def test_paper_presets_run_dagger_only_in_a_current(recipe):
+    """The paper presets' DAgger rounds follow the first stage's sea (recipes/README.md):
+    none in still water, one in es and ves; an unknown sea is named, not a lookup error."""
+    from pathlib import Path
+
+    from hydra import compose, initialize_config_dir
+
+    from torchrl_auv.training.config import resolve_config
+
+    folder = Path(__file__).resolve().parents[2] / "recipes" / recipe
+    with initialize_config_dir(config_dir=str(folder), version_base=None):
+        rounds = {sea: first_stage_values(compose("paper", [f"env.sea_state={sea}"]))
+                  ["dagger"]["dagger_rounds"] for sea in ("ideal", "es", "ves")}  # fmt: skip
+        assert rounds == {"ideal": 0, "es": 1, "ves": 1}
+        with pytest.raises(ValueError, match="env.sea_state must be one of"):
+            resolve_config(compose("paper", ["env.sea_state=calm"]))

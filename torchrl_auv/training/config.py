@@ -19,7 +19,7 @@ from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
 from torchrl_auv.training.collectors import COLLECTOR_BACKENDS, check_ray_backend
 
-__all__ = ["check_choices", "check_config"]
+__all__ = ["check_choices", "check_config", "resolve_config"]
 
 POSITIVE_INTEGERS = (
     "collector.total_frames",
@@ -78,6 +78,38 @@ def check_choices(cfg: Mapping) -> None:
 
         if not torch.cuda.is_available():
             raise ValueError("device is 'cuda' but torch sees no CUDA device; use device=cpu")
+
+
+def resolve_config(cfg) -> dict:
+    """``cfg`` (an OmegaConf config) as a resolved dict. Where an interpolation fails, the
+    choice keys that do resolve are checked first, so an unknown value another key is looked
+    up by (``env.sea_state=calm`` under ``proposer.dagger_rounds_per_sea``) is named as such.
+
+    Examples:
+        >>> from omegaconf import OmegaConf
+        >>> resolve_config(OmegaConf.create({"env": {"sea_state": "calm"},
+        ...                                  "n": "${by_sea.${env.sea_state}}", "by_sea": {}}))
+        Traceback (most recent call last):
+        ...
+        ValueError: env.sea_state must be one of ['es', 'ideal', 'ves'], got 'calm'
+    """
+    from omegaconf import OmegaConf
+    from omegaconf.errors import InterpolationResolutionError
+
+    try:
+        return OmegaConf.to_container(cfg, resolve=True)
+    except InterpolationResolutionError:
+        chosen: dict = {}
+        for key in _choices():
+            value = OmegaConf.select(cfg, key, default=None, throw_on_resolution_failure=False)
+            if value is not None:
+                section, name = key.rsplit(".", 1) if "." in key else ("", key)
+                node = chosen
+                for part in filter(None, section.split(".")):
+                    node = node.setdefault(part, {})
+                node[name] = value
+        check_choices(chosen)
+        raise
 
 
 def check_config(cfg: Mapping) -> None:

@@ -30,7 +30,7 @@ from torchrl.checkpoint import Checkpoint, CheckpointRotation
 
 from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
 from torchrl_auv.training.collectors import make_collector
-from torchrl_auv.training.config import check_config
+from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.diffusion import make_history_env
 from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.factories import make_env, make_logger, make_replay_buffer
@@ -64,7 +64,7 @@ def start_run(cfg: DictConfig) -> Path:
     the run folder (``resume`` when set, else ``run_dir``). A ``run_dir`` that already holds
     checkpoints is refused without ``resume`` (its checkpoints would be overwritten), and a
     ``resume`` folder without checkpoints is refused too."""
-    check_config(OmegaConf.to_container(cfg, resolve=True))
+    check_config(resolve_config(cfg))
     torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     run_dir = Path(cfg.resume or cfg.run_dir)
