@@ -111,7 +111,11 @@ def main(cfg: DictConfig) -> None:
 
     # 4. evaluation on held-out seeds
     policies = diffusion.evaluation_policies(
-        "diffusion_lac", policy, actor, proposer, pick=cfg.proposer.alone_pick,
+        "diffusion_lac",
+        policy,
+        actor,
+        proposer,
+        pick=cfg.proposer.alone_pick,
         alone_candidates=cfg.proposer.alone_candidates,
     )
     policies.update(training.reference_policies())

@@ -114,5 +114,5 @@ def test_paper_presets_run_dagger_only_in_a_current(recipe):
         rounds = {sea: first_stage_values(compose("paper", [f"env.sea_state={sea}"]))
                   ["dagger"]["dagger_rounds"] for sea in ("ideal", "es", "ves")}  # fmt: skip
         assert rounds == {"ideal": 0, "es": 1, "ves": 1}
-        with pytest.raises(ValueError, match="env.sea_state must be one of"):
+        with pytest.raises(ValueError, match=r"env\.sea_state must be one of"):
             resolve_config(compose("paper", ["env.sea_state=calm"]))
