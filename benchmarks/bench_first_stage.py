@@ -45,6 +45,7 @@ def _config(preset: str, sea: str, seed: int, cache: Path):
         quick = OmegaConf.load(REPO / "recipes" / "diffusion" / "quick.yaml")
         cfg = OmegaConf.merge(cfg, {k: v for k, v in quick.items() if k != "defaults"})
     cfg.run_root = str(cache)
+    cfg.run_dir = str(cache / "run")  # the preset's ${now:...} resolves only under Hydra
     cfg.seed = seed
     cfg.env.sea_state = sea
     cfg.proposer.demo_sea_state = sea
