@@ -10,7 +10,7 @@ minutes per sea state on a 2-core machine, and a second run with the same values
 seconds.
 
     .venv/bin/python benchmarks/bench_first_stage.py                     # quick preset, ideal
-    .venv/bin/python benchmarks/bench_first_stage.py --preset paper --sea-states ves  # ~25 min
+    .venv/bin/python benchmarks/bench_first_stage.py --preset paper --sea-states ves  # ~14 min
     .venv/bin/python benchmarks/bench_first_stage.py --cache runs/first_stage   # existing ones
 
 With ``--cache`` nothing is built: every artefact found there is listed with its stored phase
@@ -57,12 +57,13 @@ def _config(preset: str, sea: str, seed: int, cache: Path):
 def _row(folder: Path, reuse_s: float) -> list[object]:
     """Phase times (s) of an artefact: DAgger collection and training summed over its rounds."""
     metrics = json.loads((folder / "metrics.json").read_text())
-    rounds = sorted(int(k[6:-13]) for k in metrics if k.startswith("dagger") and
-                    k.endswith("_collection_s"))  # fmt: skip
+    rounds = 0
+    while f"dagger{rounds + 1}_s" in metrics:
+        rounds += 1
     phases = [metrics["demonstrations_s"], metrics["pretraining_s"],
-              sum(metrics[f"dagger{r}_collection_s"] for r in rounds),
-              sum(metrics[f"dagger{r}_s"] for r in rounds)]  # fmt: skip
-    return [folder.name, len(rounds), *phases, sum(phases) / 60, reuse_s]
+              sum(metrics[f"dagger{r}_collection_s"] for r in range(1, rounds + 1)),
+              sum(metrics[f"dagger{r}_s"] for r in range(1, rounds + 1))]  # fmt: skip
+    return [folder.name, rounds, *phases, sum(phases) / 60, reuse_s]
 
 
 def _never(folder: Path) -> None:
@@ -97,8 +98,7 @@ def main(argv=None) -> None:
             assert not again.built, "the second call should have reused the artefact"
             rows.append(_row(stage.folder, reuse_s))
     header = ["artefact", "dagger rounds", "demos s", "pretrain s", "dagger collect s",
-              "dagger train s",
-              "total min", "reuse s"]  # fmt: skip
+              "dagger train s", "total min", "reuse s"]  # fmt: skip
     print_table(f"first stage ({args.preset if not args.cache else args.cache})", header, rows)
     if rows:
         print_summary("first_stage", worst_total_min=max(r[-2] for r in rows),
