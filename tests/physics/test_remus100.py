@@ -25,12 +25,11 @@ from torchrl_auv.physics.remus100 import (
     step,
 )
 
-# The reference trajectories live in the shared folder beside the repository (as in CI);
+# The reference trajectories ship with the tests (tests/data/remus100/README.md);
 # TORCHRL_AUV_REFERENCE_DIR points elsewhere.
 REFERENCE_DIR = Path(
     os.environ.get(
-        "TORCHRL_AUV_REFERENCE_DIR",
-        Path(__file__).resolve().parents[3] / "shared" / "reference" / "remus100",
+        "TORCHRL_AUV_REFERENCE_DIR", Path(__file__).resolve().parents[1] / "data" / "remus100"
     )
 )
 REFERENCE_FILES = sorted(REFERENCE_DIR.glob("*.csv"))

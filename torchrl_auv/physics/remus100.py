@@ -46,7 +46,7 @@ One call of :func:`step` is one semi-implicit Euler step in the order of the spe
 with :math:`\bar u_a` the saturated actuator state. The model has no free surface and no seabed;
 those are environment limits, see :mod:`torchrl_auv.physics.limits`.
 
-Replay a reference CSV (format of ``shared/reference/remus100/README.md``)::
+Replay a reference CSV (format of ``tests/data/remus100/README.md``)::
 
     python -m torchrl_auv.physics.remus100 replay IN.csv OUT.csv
 """
