@@ -31,7 +31,8 @@ def main(cfg: DictConfig) -> None:
     stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
     proposer = stage.proposer.to(cfg.device)
     policy = diffusion.proposer_alone(proposer, cfg.proposer.alone_pick,
-                                      num_candidates=cfg.proposer.alone_candidates)  # fmt: skip
+                                      num_candidates=cfg.proposer.alone_candidates,
+                                      replan_every=cfg.proposer.alone_replan_every)  # fmt: skip
 
     # 2. run it (checkpoint: the frame count; the proposer itself is cached by the first stage)
     env = training.env_from_config(cfg, history=cfg.proposer.history)

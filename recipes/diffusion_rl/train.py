@@ -80,6 +80,7 @@ def main(cfg: DictConfig) -> None:
         proposer,
         pick=cfg.proposer.alone_pick,
         alone_candidates=cfg.proposer.alone_candidates,
+        alone_replan_every=cfg.proposer.alone_replan_every,
     )
     policies.update(training.reference_policies())
     facts["gradient updates"] = progress["updates"]

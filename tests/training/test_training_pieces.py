@@ -23,7 +23,9 @@ from torchrl_auv.training import diffusion
      ({"advisor": {"backend": "oracle"}}, "advisor.backend"),
      ({"advisor": {"form": "cubic"}}, "advisor.form"),
      ({"replay_buffer": {"storage": "disk"}}, "replay_buffer.storage"),
-     ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states")],
+     ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states"),
+     ({"proposer": {"alone_replan_every": 0}}, "proposer.alone_replan_every"),
+     ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every")],
 )  # fmt: skip
 def test_check_choices_names_the_key(cfg, named):
     with pytest.raises(ValueError, match=named.replace(".", r"\.")):

@@ -37,6 +37,9 @@ __all__ = ["CANDIDATE_PICKS", "ProposerAlone", "medoid_index", "pick_candidate"]
 #: ``medoid``: the consensus candidate (:func:`medoid_index`); ``first``: candidate 0 (one
 #: sample of the proposer).
 CANDIDATE_PICKS = ("medoid", "first")
+#: Where :class:`ProposerAlone` with ``replan_every > 1`` writes the chunk it executes and the
+#: executed action's index in it.
+PLAN_KEY, PLAN_STEP_KEY = ("proposer", "plan"), ("proposer", "plan_step")
 
 
 def medoid_index(candidates: torch.Tensor) -> torch.Tensor:
@@ -62,8 +65,16 @@ def pick_candidate(candidates: torch.Tensor, pick: str = "medoid") -> torch.Tens
 
 class ProposerAlone(TensorDictModuleBase):
     """The proposer acting alone: runs ``proposer`` and writes the first action of the
-    candidate chosen by ``pick`` (:func:`pick_candidate`) to ``action_key``, re-planning
-    every decision.
+    candidate chosen by ``pick`` (:func:`pick_candidate`) to ``action_key``; with
+    ``replan_every = n > 1`` it then executes the chunk's next actions for ``n`` decisions
+    in all before it plans again (receding-horizon execution of action chunks, as in
+    Diffusion Policy, Chi et al. 2023).
+
+    Re-planning every decision lets the pick switch between the modes of the proposer's
+    distribution from one decision to the next (turn left, then right, then left: a heading
+    that never commits); executing a few actions of one chunk commits to it. Each row
+    (scene, AUV) keeps its own plan and plans anew when its episode restarts
+    (``step_count_key`` is 0); the chunk's length ``H`` bounds ``n``.
 
     Args:
         proposer: a :class:`~torchrl_auv.modules.DiffusionProposer`.
@@ -73,6 +84,13 @@ class ProposerAlone(TensorDictModuleBase):
         num_candidates: how many candidates to draw for the pick (``None``: the proposer's
             own ``num_candidates``). The medoid of more samples is a better estimate of the
             mode; the proposer's K for a critic's selection stays as it is.
+        replan_every: decisions per plan (``1 <= n <= H``; 1: re-plan every decision). With
+            ``n > 1`` the module is stateful (one plan per row of the batch it last saw) and
+            writes the chunk it executes to ``("proposer", "plan")`` ``[*B, H, A]`` and the
+            action's index in it to ``("proposer", "plan_step")`` ``[*B]`` instead of the
+            candidates.
+        step_count_key: the env's decision counter (``[*B', 1]``, broadcast over trailing
+            agent dims; TorchRL's ``StepCounter`` writes one), read when ``n > 1``.
 
     Examples:
         >>> from tensordict import TensorDict
@@ -82,6 +100,12 @@ class ProposerAlone(TensorDictModuleBase):
         ...     TensorDict({"observation": torch.zeros(2, 4)}, [2]))
         >>> td["action"].shape, td["proposer", "candidates"].shape
         (torch.Size([2, 3]), torch.Size([2, 7, 8, 3]))
+        >>> chunked = ProposerAlone(proposer, replan_every=4)
+        >>> steps = [chunked(TensorDict({"observation": torch.zeros(2, 4),
+        ...                              "step_count": torch.full((2, 1), t)}, [2]))
+        ...          for t in range(5)]
+        >>> [td["proposer", "plan_step"].tolist() for td in steps]
+        [[0, 0], [1, 1], [2, 2], [3, 3], [0, 0]]
     """
 
     def __init__(
@@ -91,6 +115,8 @@ class ProposerAlone(TensorDictModuleBase):
         action_key: NestedKey = "action",
         *,
         num_candidates: int | None = None,
+        replan_every: int = 1,
+        step_count_key: NestedKey = "step_count",
     ) -> None:
         super().__init__()
         if pick not in CANDIDATE_PICKS:
@@ -99,12 +125,36 @@ class ProposerAlone(TensorDictModuleBase):
             isinstance(num_candidates, int) and num_candidates >= 1
         ):
             raise ValueError(f"num_candidates must be an int >= 1, got {num_candidates!r}")
+        horizon = proposer.horizon
+        if not (isinstance(replan_every, int) and 1 <= replan_every <= horizon):
+            raise ValueError(f"replan_every must be an int in [1, {horizon}] (the proposer's "
+                             f"horizon), got {replan_every!r}")  # fmt: skip
         self.proposer, self.pick, self.action_key = proposer, pick, action_key
-        self.num_candidates = num_candidates
+        self.num_candidates, self.replan_every = num_candidates, replan_every
+        self.step_count_key = step_count_key
         self.in_keys = list(proposer.in_keys)
-        self.out_keys = [*proposer.out_keys, action_key]
+        if replan_every == 1:
+            self.out_keys = [*proposer.out_keys, action_key]
+        else:
+            self.in_keys.append(step_count_key)
+            self.out_keys = [PLAN_KEY, PLAN_STEP_KEY, action_key]
+        self._plan: torch.Tensor | None = None  # [*B, H, A], the chunk each row executes
+        self._step: torch.Tensor | None = None  # [*B], the index of its next action
+
+    def _candidates(self, tensordict: TensorDictBase) -> torch.Tensor:
+        proposer = self.proposer
+        if self.num_candidates is None:
+            return proposer(tensordict).get(proposer.candidates_key)
+        candidates, _ = proposer.sample(proposer.build_state(tensordict),
+                                        num_candidates=self.num_candidates,
+                                        generator=proposer.generator)  # fmt: skip
+        tensordict.set(proposer.candidates_key, candidates)
+        tensordict.set(proposer.first_actions_key, candidates[..., 0, :])
+        return candidates
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        if self.replan_every > 1:
+            return self._forward_chunked(tensordict)
         proposer = self.proposer
         if self.num_candidates is None:
             proposer(tensordict)
@@ -117,3 +167,30 @@ class ProposerAlone(TensorDictModuleBase):
             tensordict.set(proposer.first_actions_key, candidates[..., 0, :])
         chunk = pick_candidate(candidates, self.pick)
         return tensordict.set(self.action_key, chunk[..., 0, :])
+
+    def _forward_chunked(self, tensordict: TensorDictBase) -> TensorDictBase:
+        batch = tensordict.get(self.proposer.state_key).shape[:-1]
+        count = tensordict.get(self.step_count_key, None)
+        if count is None:
+            raise KeyError(f"replan_every > 1 reads the decision counter {self.step_count_key!r} "
+                           "(step_count_key), absent from the input; add TorchRL's StepCounter "
+                           "to the env")  # fmt: skip
+        count = count.reshape(*count.shape[:-1], *(1,) * (len(batch) - count.dim() + 1))
+        restarted = (count == 0).expand(batch)
+        if self._plan is None or self._plan.shape[:-2] != batch:
+            self._plan, self._step = None, torch.zeros(batch, dtype=torch.long)
+            due = torch.ones(batch, dtype=torch.bool)
+        else:
+            due = restarted | (self._step >= self.replan_every)
+        if due.any():
+            work = tensordict.select(*self.proposer.in_keys, strict=False)
+            chunk = pick_candidate(self._candidates(work), self.pick)
+            self._plan = chunk if self._plan is None else torch.where(
+                due[..., None, None], chunk, self._plan)  # fmt: skip
+            self._step = torch.where(due, torch.zeros_like(self._step), self._step)
+        index = self._step[..., None, None].expand(*batch, 1, self._plan.shape[-1])
+        tensordict.set(self.action_key, self._plan.gather(-2, index).squeeze(-2))
+        tensordict.set(PLAN_KEY, self._plan.clone())
+        tensordict.set(PLAN_STEP_KEY, self._step.clone())
+        self._step = self._step + 1
+        return tensordict

@@ -30,6 +30,7 @@ POSITIVE_INTEGERS = (
     "replay_buffer.batch_size",
     "proposer.num_candidates",
     "proposer.alone_candidates",
+    "proposer.alone_replan_every",
 )
 
 
@@ -73,6 +74,10 @@ def check_choices(cfg: Mapping) -> None:
         value = _get(cfg, key)
         if value is not None and (not isinstance(value, int) or value < 1):
             raise ValueError(f"{key} must be an integer >= 1, got {value!r}")
+    replan, horizon = _get(cfg, "proposer.alone_replan_every"), _get(cfg, "proposer.horizon")
+    if replan is not None and horizon is not None and replan > horizon:
+        raise ValueError(f"proposer.alone_replan_every must be <= proposer.horizon ({horizon}): "
+                         f"a plan is one chunk; got {replan}")  # fmt: skip
     if _get(cfg, "device") == "cuda":
         import torch
 

@@ -84,12 +84,14 @@ def evaluation_policies(
     *,
     pick: str = "medoid",
     alone_candidates: int | None = None,
+    alone_replan_every: int = 1,
 ) -> dict:
     """The diffusion recipes' evaluation rows: the framework (``name``), each rank of its
     selector's ranking executed on its own (``OA`` = rank 0, ``CA1`` ... over the K candidates
     and, with an actor, its own action), the actor alone (``RL``) and the proposer alone
-    (:func:`proposer_alone` with ``pick`` and ``alone_candidates``)."""
-    alone = proposer_alone(proposer, pick, num_candidates=alone_candidates)
+    (:func:`proposer_alone` with ``pick``, ``alone_candidates`` and ``alone_replan_every``)."""
+    alone = proposer_alone(proposer, pick, num_candidates=alone_candidates,
+                           replan_every=alone_replan_every)  # fmt: skip
     rows = {name: lambda _: policy, "proposer alone": lambda _: alone}
     if actor is not None:
         rows["RL"] = lambda _: actor
@@ -100,12 +102,18 @@ def evaluation_policies(
 
 
 def proposer_alone(
-    proposer: DiffusionProposer, pick: str = "medoid", *, num_candidates: int | None = None
+    proposer: DiffusionProposer,
+    pick: str = "medoid",
+    *,
+    num_candidates: int | None = None,
+    replan_every: int = 1,
 ) -> ProposerAlone:
     """The proposer acting alone on the agents layout
-    (:class:`~torchrl_auv.modules.ProposerAlone`: the ``pick`` candidate's first action,
-    ``"medoid"`` or ``"first"``, of ``num_candidates`` draws, re-planned every decision)."""
-    return ProposerAlone(proposer, pick, action_key=ACTION, num_candidates=num_candidates)
+    (:class:`~torchrl_auv.modules.ProposerAlone`: the ``pick`` candidate, ``"medoid"`` or
+    ``"first"``, of ``num_candidates`` draws, its actions executed for ``replan_every``
+    decisions before the next plan; the env's ``step_count`` restarts the plan)."""
+    return ProposerAlone(proposer, pick, action_key=ACTION, num_candidates=num_candidates,
+                         replan_every=replan_every)  # fmt: skip
 
 
 def feedback_batch(data: TensorDictBase) -> TensorDict:
