@@ -166,6 +166,24 @@ def test_dual_ascent_raises_lambda_when_the_condition_is_violated_and_lowers_it_
     assert _optimise_lambda(satisfied, data, steps=50) < 0.5 * start
 
 
+def test_the_multiplier_does_not_wind_up_above_its_cap():
+    """Dual ascent while the condition is violated must not push log_lambda past
+    log(lambda_max): once the condition holds, lambda comes off its cap within a few steps
+    (as TorchRL's SACLoss clamps log_alpha in place)."""
+    loss = _loss(lambda_init=0.2, lambda_max=1.0, stability_weight=0.5)
+    assert _optimise_lambda(loss, _batch(cost=50.0), steps=300) == pytest.approx(1.0)
+    loss(_batch(cost=50.0))  # a forward after the last step: the stored value is back at its cap
+    assert loss.log_lambda.item() <= 1e-6
+    with torch.no_grad():  # now the condition holds (the critic of the test above)
+        first = loss.lyapunov_network_params["module", "0", "weight"]
+        first[:, :OBS] = 0.0
+        first[:, OBS:] = 3.0
+    data = _batch(cost=0.0)
+    data["action"] = torch.full_like(data["action"], 0.99)
+    assert loss(data)["delta_l"] < 0
+    assert _optimise_lambda(loss, data, steps=3) < 1.0
+
+
 def test_switching_the_spec_keeps_the_duals_and_the_optimiser():
     loss = _loss(lambda_init=0.7, beta_init=0.3)
     optim = torch.optim.Adam(loss.parameters(), lr=1e-3)

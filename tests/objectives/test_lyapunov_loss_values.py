@@ -194,9 +194,10 @@ def test_the_default_discount_is_0_99_and_lambda_is_clamped_to_lambda_max():
     out = loss(_data())
     expected = _expected(_data(), spec, mode="lac", gamma=0.99, lam=1.0, beta=0.3,
                          target_entropy=-float(ACT))  # fmt: skip
-    expected["loss_lambda"] = -torch.tensor(5.0).log() * expected["delta_l"]  # unclamped log
+    # log_lambda itself is put back at log(lambda_max) = 0 before the dual term (no windup)
+    expected["loss_lambda"] = -torch.tensor(1.0).log() * expected["delta_l"]
     _check(out, expected)
-    assert out["lambda"] == 1.0
+    assert out["lambda"] == 1.0 and loss.log_lambda.item() == 0.0
 
 
 def test_the_critic_gradient_is_the_hand_derivative():

@@ -29,6 +29,7 @@ nothing about the decrease along trajectories); it is available as ``mode="paper
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import torch
@@ -58,7 +59,8 @@ class LyapunovActorCriticLoss(LossModule):
         form: a Lyapunov form name (:data:`~torchrl_auv.objectives.FORMS`), or pass ``spec``.
         stability_weight: :math:`\\alpha > 0`.
         mode: ``"lac"`` (default) or ``"paper"``.
-        lambda_init, lambda_max: initial and largest Lagrange multiplier (> 0).
+        lambda_init, lambda_max: initial and largest Lagrange multiplier (> 0); ``log_lambda``
+            itself is held at or below ``log(lambda_max)`` (no windup past the cap).
         beta_init: initial entropy temperature (> 0).
         target_entropy: ``"auto"`` (minus the action dimension) or a number.
         action_spec: optional, for the ``"auto"`` target entropy.
@@ -168,6 +170,13 @@ class LyapunovActorCriticLoss(LossModule):
         """The Lagrange multiplier, ``exp(log_lambda)`` clamped to ``[0, lambda_max]``."""
         return self.log_lambda.exp().clamp(0.0, self.lambda_max)
 
+    def _clamp_log_lambda(self) -> None:
+        """Put ``log_lambda`` itself back at ``log(lambda_max)`` when a dual step pushed it
+        past (no windup: once the condition holds, the very next dual step lowers lambda;
+        TorchRL's ``SACLoss`` clamps ``log_alpha`` in place the same way)."""
+        with torch.no_grad():
+            self.log_lambda.clamp_(max=math.log(self.lambda_max))
+
     @property
     def beta(self) -> torch.Tensor:
         return self.log_beta.exp()
@@ -218,6 +227,7 @@ class LyapunovActorCriticLoss(LossModule):
         return cost
 
     def forward(self, tensordict: TensorDictBase) -> TensorDict:
+        self._clamp_log_lambda()
         td = tensordict.copy()  # never modify the caller's data
         next_td = td.get("next", None)
         if next_td is None:
