@@ -66,7 +66,8 @@ def main(cfg: DictConfig) -> None:
                                    stability_weight=cfg.advisor.stability_weight,
                                    lambda_max=cfg.optim.lambda_max)  # fmt: skip
     target_updater = SoftUpdate(loss, tau=cfg.optim.tau)
-    policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov", actor=actor,
+    policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov",
+                                             actor=actor if cfg.selection.include_actor else None,
                                              critic_out_key=diffusion.LYAPUNOV_RAW,
                                              spec=loss.spec)  # fmt: skip
     selector = policy[-1]

@@ -44,7 +44,8 @@ def main(cfg: DictConfig) -> None:
                                                   alpha_init=cfg.optim.alpha_init,
                                                   tau=cfg.optim.tau)  # fmt: skip
     q_critic = QEnsembleCritic.from_loss(loss)  # the live twin Q, reduced by min
-    policy = diffusion.make_selection_policy(proposer, q_critic, mode="q", actor=actor,
+    policy = diffusion.make_selection_policy(proposer, q_critic, mode="q",
+                                             actor=actor if cfg.selection.include_actor else None,
                                              critic_out_key=q_critic.out_keys[0])  # fmt: skip
     optimisers = training.sac_optimisers(loss, cfg.optim)
     buffer = training.buffer_from_config(cfg, run_dir)

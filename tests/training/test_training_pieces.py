@@ -25,7 +25,8 @@ from torchrl_auv.training import diffusion
      ({"replay_buffer": {"storage": "disk"}}, "replay_buffer.storage"),
      ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states"),
      ({"proposer": {"alone_replan_every": 0}}, "proposer.alone_replan_every"),
-     ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every")],
+     ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every"),
+     ({"selection": {"include_actor": "yes"}}, "selection.include_actor")],
 )  # fmt: skip
 def test_check_choices_names_the_key(cfg, named):
     with pytest.raises(ValueError, match=named.replace(".", r"\.")):
@@ -124,6 +125,38 @@ def test_ranked_candidates_and_the_live_lyapunov_critic():
             p.add_(0.5)
     after = policy[-1].scores(obs, td["agents", "proposer", "first_actions"])
     assert not torch.allclose(before, after)
+
+
+def test_without_the_actor_the_selection_set_is_the_k_candidates():
+    env = diffusion.make_history_env("ideal", history=2, seed=0, num_envs=2, max_steps=20)
+    from torchrl_auv.modules import DiffusionProposer
+
+    proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
+    actor = training.make_actor(env, (16,))
+    critic = diffusion.make_lyapunov_critic(env, (16,))
+    spec = diffusion.make_lac_loss(actor, critic, env).spec
+    policy = diffusion.make_selection_policy(
+        proposer, critic, mode="lyapunov", actor=None, critic_out_key=diffusion.LYAPUNOV_RAW,
+        spec=spec,
+    )  # fmt: skip
+    td = policy(env.reset())
+    assert td["agents", "selector", "scores"].shape[-1] == 3
+    assert diffusion.ACTOR_ACTION not in td.keys(True, True)
+    rows = diffusion.evaluation_policies("diffusion_lac", policy, actor, proposer)
+    assert {"OA", "CA1", "CA2", "RL", "proposer alone"} <= set(rows) and "CA3" not in rows
+
+
+def test_batch_metrics_log_the_share_of_each_selection_slot():
+    index = torch.tensor([[[0, 3], [3, 3]], [[1, 3], [0, 2]]])  # [B=2, T=2, N=2], slots 0..3
+    selector = {"index": index, "scores": torch.zeros(2, 2, 2, 4)}
+    step = {"agents": {"cost": torch.ones(2, 2, 2, 1)},
+            "done": torch.zeros(2, 2, 1, dtype=torch.bool)}  # fmt: skip
+    data = TensorDict({"agents": {"selector": selector}, "next": step}, [2, 2])
+    out = training.batch_metrics(data)
+    shares = [out[f"train/selected_rank_{i}"] for i in range(4)]
+    assert shares == [2 / 8, 1 / 8, 1 / 8, 4 / 8]
+    del data["agents", "selector"]
+    assert not any(k.startswith("train/selected_rank") for k in training.batch_metrics(data))
 
 
 def test_evaluation_rows_repeat_on_the_same_seed_whatever_the_global_rng():

@@ -47,6 +47,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "proposer.sampler": SAMPLERS,
         "proposer.alone_pick": CANDIDATE_PICKS,
         "proposer.lr_schedule": LR_SCHEDULES,
+        "selection.include_actor": (True, False),
     }
 
 

@@ -88,14 +88,15 @@ def evaluation_policies(
 ) -> dict:
     """The diffusion recipes' evaluation rows: the framework (``name``), each rank of its
     selector's ranking executed on its own (``OA`` = rank 0, ``CA1`` ... over the K candidates
-    and, with an actor, its own action), the actor alone (``RL``) and the proposer alone
+    and, when the selector scores it, the actor's own action), the actor alone (``RL``, with
+    an ``actor``) and the proposer alone
     (:func:`proposer_alone` with ``pick``, ``alone_candidates`` and ``alone_replan_every``)."""
     alone = proposer_alone(proposer, pick, num_candidates=alone_candidates,
                            replan_every=alone_replan_every)  # fmt: skip
     rows = {name: lambda _: policy, "proposer alone": lambda _: alone}
     if actor is not None:
         rows["RL"] = lambda _: actor
-    ranks = proposer.num_candidates + (actor is not None)
+    ranks = proposer.num_candidates + bool(policy[-1].include_actor_action)
     for rank in range(ranks):
         rows["OA" if rank == 0 else f"CA{rank}"] = lambda _, r=rank: RankedCandidate(policy, r)
     return rows

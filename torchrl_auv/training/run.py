@@ -188,9 +188,18 @@ def gradient_step(loss, optimisers: Mapping[str, torch.optim.Optimizer], updater
 
 
 def batch_metrics(data: TensorDictBase) -> dict[str, float]:
-    """``train/cost_mean`` (mean per AUV and decision of the collected batch) and, when
-    episodes ended in it, ``train/episode_<metric>`` averaged over those episodes."""
+    """``train/cost_mean`` (mean per AUV and decision of the collected batch); when
+    episodes ended in it, ``train/episode_<metric>`` averaged over those episodes; with a
+    candidate selector's choices in the batch (``("agents", "selector", "index")``),
+    ``train/selected_rank_<i>``: the share of AUV-decisions that executed slot ``i`` of the
+    selection set (``0 .. K-1`` the proposer's candidates, ``K`` the actor's own action when
+    it competes)."""
     out = {"train/cost_mean": data["next", "agents", "cost"].mean().item()}
+    index = data.get(("agents", "selector", "index"), None)
+    if index is not None:
+        slots = data["agents", "selector", "scores"].shape[-1]
+        shares = torch.bincount(index.flatten(), minlength=slots).float() / index.numel()
+        out.update({f"train/selected_rank_{i}": v for i, v in enumerate(shares.tolist())})
     ended = data["next", "done"][..., 0]
     if ended.any():
         for name in EPISODE_METRICS:
