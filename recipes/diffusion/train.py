@@ -41,7 +41,8 @@ def main(cfg: DictConfig) -> None:
     logger = training.logger_from_config(cfg, run_dir)
     collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
                                                total_frames=max(remaining, 1))  # fmt: skip
-    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation)
+    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation,
+                                  eval_policy=policy, history=cfg.proposer.history)  # fmt: skip
     for data in collector if remaining > 0 else ():
         progress["frames"] += data.numel()
         tracker.step(data, {})

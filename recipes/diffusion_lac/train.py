@@ -86,7 +86,8 @@ def main(cfg: DictConfig) -> None:
 
     collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
                                                total_frames=max(remaining, 1))  # fmt: skip
-    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation)
+    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation,
+                                  eval_policy=policy, history=cfg.proposer.history)  # fmt: skip
     window, outputs = [], []
     for data in collector if remaining > 0 else ():
         buffer.extend(training.select_for_replay(data))

@@ -49,7 +49,8 @@ def main(cfg: DictConfig) -> None:
     collector = training.collector_from_config(cfg, actor, env=env, total_frames=max(remaining, 1),
                                                init_random_frames=random_frames)  # fmt: skip
 
-    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation)
+    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation,
+                                  eval_policy=actor)  # fmt: skip
     stored_bytes = None
     for data in collector if remaining > 0 else ():
         stored = training.select_for_replay(data)

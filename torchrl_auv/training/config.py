@@ -31,6 +31,9 @@ POSITIVE_INTEGERS = (
     "proposer.num_candidates",
     "proposer.alone_candidates",
     "proposer.alone_replan_every",
+    "eval.every_frames",
+    "eval.curve_envs",
+    "eval.curve_steps",
 )
 
 

@@ -254,22 +254,56 @@ class RunTracker:
 
     The recipe counts ``progress["frames"]`` itself (before its updates) and calls
     :meth:`step` once per collected batch and :meth:`finish` after the loop.
+
+    **Learning curves from evaluation.** With ``eval_policy`` and ``cfg.eval.every_frames``
+    set, the policy is evaluated at the start (frame 0) and each time the frame count passes
+    a multiple of ``every_frames``: ``cfg.eval.curve_envs`` held-out scenes of the training
+    sea (seed ``cfg.eval.seed``, the same scenes every time) for ``cfg.eval.curve_steps``
+    decisions, deterministic actions (:func:`evaluate`). Each metric of the summary table is
+    logged as ``eval/<metric>`` and written to ``eval_curve.csv`` (``step,key,value``); the
+    time it takes is logged as ``time/eval_s`` and left out of the frames/s.
     """
 
     def __init__(self, cfg: DictConfig, run_dir: Path, logger, progress: dict, checkpoint,
-                 rotation) -> None:  # fmt: skip
+                 rotation, *, eval_policy=None, history: int = 0) -> None:  # fmt: skip
         self.cfg, self.logger, self.progress = cfg, logger, progress
         self.checkpoint, self.rotation = checkpoint, rotation
         self.curve = Path(run_dir) / "train_curve.csv"
+        self.eval_curve = Path(run_dir) / "eval_curve.csv"
         self.bar = tqdm.tqdm(total=cfg.collector.total_frames, initial=progress["frames"],
                              unit="frame")  # fmt: skip
         self.start = time.perf_counter()
         self.frames_at_start = self.last_saved = progress["frames"]
+        self.eval_policy, self.history, self.eval_seconds = eval_policy, history, 0.0
+        self.every = OmegaConf.select(cfg, "eval.every_frames", default=None) or 0
+        if eval_policy is not None and self.every:
+            self.evaluated_block = progress["frames"] // self.every
+            if progress["frames"] == 0:
+                self.evaluate_curve()
 
     def rate(self) -> float:
-        """Frames per second of this session (collection and updates together)."""
-        elapsed = max(time.perf_counter() - self.start, 1e-9)
+        """Frames per second of this session (collection and updates together; the learning
+        curve's evaluations left out)."""
+        elapsed = max(time.perf_counter() - self.start - self.eval_seconds, 1e-9)
         return (self.progress["frames"] - self.frames_at_start) / elapsed
+
+    def evaluate_curve(self) -> dict[str, float]:
+        """One point of the learning curve (class docstring); returns its metrics."""
+        cfg, began = self.cfg, time.perf_counter()
+
+        def curve_env(sea: str, seed: int):
+            return _scene_env(sea, self.history, seed=seed, num_envs=cfg.eval.curve_envs,
+                              controller=cfg.env.controller, rate_model=cfg.env.rate_model,
+                              max_steps=cfg.eval.curve_steps)  # fmt: skip
+
+        row = evaluate(curve_env, {"policy": lambda _: self.eval_policy}, [cfg.env.sea_state],
+                       seed=cfg.eval.seed, steps=cfg.eval.curve_steps)[0]  # fmt: skip
+        seconds = time.perf_counter() - began
+        self.eval_seconds += seconds
+        metrics = {f"eval/{key}": row[key] for key in SUMMARY_COLUMNS}
+        metrics["time/eval_s"] = seconds
+        log_metrics(self.logger, metrics, self.progress["frames"], curve=self.eval_curve)
+        return metrics
 
     def step(self, data: TensorDictBase, metrics: dict[str, float], spec=None) -> None:
         """After a batch: add the batch's metrics and the rate, log, advance the bar, save a
@@ -281,6 +315,11 @@ class RunTracker:
         log_metrics(self.logger, metrics, frames, curve=self.curve)
         self.bar.update(data.numel())
         self.bar.set_postfix(progress_postfix(metrics, spec))
+        if self.eval_policy is not None and self.every:
+            block = frames // self.every
+            if block > self.evaluated_block:
+                self.evaluated_block = block
+                self.evaluate_curve()
         if frames - self.last_saved >= self.cfg.checkpoint.every_frames:
             self.rotation.save(self.checkpoint, step=frames)
             self.last_saved = frames

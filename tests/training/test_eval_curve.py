@@ -1,0 +1,81 @@
+"""RunTracker's learning curve: deterministic held-out evaluations at frame 0 and each time the
+frame count passes a multiple of eval.every_frames, to eval_curve.csv and eval/ metrics."""
+
+from __future__ import annotations
+
+import csv
+
+import torch
+from omegaconf import OmegaConf
+from tensordict import TensorDict
+from tensordict.nn import TensorDictModule
+
+from torchrl_auv import training
+
+
+def _cfg(every):
+    return OmegaConf.create({
+        "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
+        "collector": {"total_frames": 40},
+        "checkpoint": {"every_frames": 10_000},
+        "eval": {"seed": 100000, "every_frames": every, "curve_envs": 1, "curve_steps": 4},
+    })  # fmt: skip
+
+
+def _batch():
+    return TensorDict({"next": {"agents": {"cost": torch.ones(4, 2, 1)},
+                                "done": torch.zeros(4, 1, dtype=torch.bool)}}, [4])  # fmt: skip
+
+
+class _Calls(TensorDictModule):
+    """Zero actions, counting the decisions it is asked for."""
+
+    def __init__(self):
+        super().__init__(
+            lambda obs: torch.zeros(*obs.shape[:-1], 3),
+            in_keys=[("agents", "observation")], out_keys=[("agents", "action")],
+        )  # fmt: skip
+        self.calls = 0
+
+    def forward(self, tensordict, *args, **kwargs):
+        self.calls += 1
+        return super().forward(tensordict, *args, **kwargs)
+
+
+def _curve_steps(path):
+    with open(path) as handle:
+        rows = list(csv.DictReader(handle, fieldnames=("step", "key", "value")))
+    return sorted({int(r["step"]) for r in rows if r["key"] == "eval/cost_mean"}), rows
+
+
+def test_the_curve_is_evaluated_at_the_start_and_at_each_multiple(tmp_path):
+    policy, progress = _Calls(), {"frames": 0}
+    tracker = training.RunTracker(_cfg(10), tmp_path, None, progress, None, None,
+                                  eval_policy=policy)  # fmt: skip
+    assert policy.calls == 4  # frame 0: one episode of curve_steps decisions
+    for frames in (8, 16, 30, 31):
+        progress["frames"] = frames
+        tracker.step(_batch(), {})
+    steps, rows = _curve_steps(tmp_path / "eval_curve.csv")
+    assert steps == [0, 16, 30]  # 8: not yet 10; 30 jumps two multiples: one evaluation
+    assert policy.calls == 12
+    keys = {r["key"] for r in rows}
+    assert {"eval/cost_mean", "eval/ssn", "eval/terminated", "time/eval_s"} <= keys
+    assert tracker.eval_seconds > 0
+
+
+def test_a_resumed_run_does_not_evaluate_its_start_again_and_off_means_off(tmp_path):
+    policy, progress = _Calls(), {"frames": 16}
+    tracker = training.RunTracker(_cfg(10), tmp_path, None, progress, None, None,
+                                  eval_policy=policy)  # fmt: skip
+    progress["frames"] = 19
+    tracker.step(_batch(), {})
+    assert policy.calls == 0
+    progress["frames"] = 20
+    tracker.step(_batch(), {})
+    assert _curve_steps(tmp_path / "eval_curve.csv")[0] == [20]
+    off = _Calls()
+    (tmp_path / "off").mkdir()
+    training.RunTracker(_cfg(None), tmp_path / "off", None, {"frames": 0}, None, None,
+                        eval_policy=off).step(_batch(), {})  # fmt: skip
+    assert off.calls == 0 and not (tmp_path / "off" / "eval_curve.csv").exists()
