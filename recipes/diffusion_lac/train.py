@@ -64,7 +64,8 @@ def main(cfg: DictConfig) -> None:
     loss = diffusion.make_lac_loss(actor, critic, env, gamma=cfg.optim.gamma,
                                    form=cfg.advisor.form,
                                    stability_weight=cfg.advisor.stability_weight,
-                                   lambda_max=cfg.optim.lambda_max)  # fmt: skip
+                                   lambda_max=cfg.optim.lambda_max,
+                                   loss_function=cfg.optim.loss_function)  # fmt: skip
     target_updater = SoftUpdate(loss, tau=cfg.optim.tau)
     policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov",
                                              actor=actor if cfg.selection.include_actor else None,

@@ -40,9 +40,10 @@ def main(cfg: DictConfig) -> None:
     env = training.env_from_config(cfg, history=cfg.proposer.history)
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
     critic = training.make_q_critic(env, cfg.network.hidden).to(cfg.device)
-    loss, target_updater = training.make_sac_loss(actor, critic, env, gamma=cfg.optim.gamma,
-                                                  alpha_init=cfg.optim.alpha_init,
-                                                  tau=cfg.optim.tau)  # fmt: skip
+    loss, target_updater = training.make_sac_loss(
+        actor, critic, env, gamma=cfg.optim.gamma, alpha_init=cfg.optim.alpha_init,
+        tau=cfg.optim.tau, loss_function=cfg.optim.loss_function,
+    )  # fmt: skip
     q_critic = QEnsembleCritic.from_loss(loss)  # the live twin Q, reduced by min
     policy = diffusion.make_selection_policy(proposer, q_critic, mode="q",
                                              actor=actor if cfg.selection.include_actor else None,

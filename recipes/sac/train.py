@@ -31,9 +31,10 @@ def main(cfg: DictConfig) -> None:
     env = training.env_from_config(cfg)
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
     critic = training.make_q_critic(env, cfg.network.hidden).to(cfg.device)
-    loss, target_updater = training.make_sac_loss(actor, critic, env, gamma=cfg.optim.gamma,
-                                                  alpha_init=cfg.optim.alpha_init,
-                                                  tau=cfg.optim.tau)  # fmt: skip
+    loss, target_updater = training.make_sac_loss(
+        actor, critic, env, gamma=cfg.optim.gamma, alpha_init=cfg.optim.alpha_init,
+        tau=cfg.optim.tau, loss_function=cfg.optim.loss_function,
+    )  # fmt: skip
     optimisers = training.sac_optimisers(loss, cfg.optim)
     buffer = training.buffer_from_config(cfg, run_dir)
 

@@ -170,6 +170,28 @@ def test_every_term_equals_the_hand_calculation(mode, form, prior):
     _check(loss(data), expected)
 
 
+def test_the_huber_critic_loss_is_half_the_square_near_zero_and_linear_beyond():
+    """loss_function="smooth_l1": mean of e^2 / 2 where |e| < 1, |e| - 1/2 elsewhere, with
+    e = L(s, a) - (c + gamma (1 - d) L_target(s', a')) by hand; the other terms unchanged."""
+    spec = LyapunovSpec(form="squared", alpha=0.3)
+    loss = _loss(spec, "lac", target_entropy=-1.5, loss_function="smooth_l1")
+    loss.make_value_estimator(gamma=0.9)
+    data = _data()
+    data["next", "cost"][0] = 40.0  # one large target (as a termination's cost)
+    expected = _expected(data, spec, mode="lac", gamma=0.9, lam=0.7, beta=0.3,
+                         target_entropy=-1.5)  # fmt: skip
+    obs, action, nobs = data["observation"], data["action"], data["next", "observation"]
+    policy = lambda o: o @ A.T + A0  # noqa: E731
+    target = data["next", "cost"] + 0.9 * (1 - data["next", "terminated"].float()) * _hand_l(
+        nobs, policy(nobs), spec, W_TARGET, B_TARGET)  # fmt: skip
+    e = (_hand_l(obs, action, spec) - target).abs()
+    assert (e >= 1).any() and (e < 1).any()
+    expected["loss_lyapunov"] = torch.where(e < 1, 0.5 * e**2, e - 0.5).mean()
+    _check(loss(data), expected)
+    with pytest.raises(ValueError, match="loss_function must be one of"):
+        _loss(spec, "lac", loss_function="l1")
+
+
 @pytest.mark.parametrize(
     ("kwargs", "target_entropy"),
     [

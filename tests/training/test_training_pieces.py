@@ -26,7 +26,8 @@ from torchrl_auv.training import diffusion
      ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states"),
      ({"proposer": {"alone_replan_every": 0}}, "proposer.alone_replan_every"),
      ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every"),
-     ({"selection": {"include_actor": "yes"}}, "selection.include_actor")],
+     ({"selection": {"include_actor": "yes"}}, "selection.include_actor"),
+     ({"optim": {"loss_function": "l1"}}, "optim.loss_function")],
 )  # fmt: skip
 def test_check_choices_names_the_key(cfg, named):
     with pytest.raises(ValueError, match=named.replace(".", r"\.")):
@@ -197,3 +198,14 @@ def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
     assert diffusion.proposer_from_config(cfg).compile is False
     cfg.proposer.compile = True
     assert diffusion.proposer_from_config(cfg).compile is True
+
+
+def test_the_critic_loss_functions_reach_the_losses():
+    env = training.make_env("ideal", seed=0, num_envs=1, max_steps=5)
+    actor, critic = training.make_actor(env, (8,)), training.make_q_critic(env, (8,))
+    assert training.make_sac_loss(actor, critic, env)[0].loss_function == "smooth_l1"  # TorchRL's
+    assert training.make_sac_loss(actor, critic, env, loss_function="l2")[0].loss_function == "l2"
+    lyapunov = diffusion.make_lyapunov_critic(env, (8,))
+    assert diffusion.make_lac_loss(actor, lyapunov, env).loss_function == "l2"
+    huber = diffusion.make_lac_loss(actor, lyapunov, env, loss_function="smooth_l1")
+    assert huber.loss_function == "smooth_l1"

@@ -41,9 +41,13 @@ from torchrl.objectives.utils import ValueEstimators
 
 from torchrl_auv.objectives.lyapunov_forms import FORMS, LyapunovSpec, lyapunov_value
 
-__all__ = ["MODES", "LyapunovActorCriticLoss"]
+__all__ = ["LOSS_FUNCTIONS", "MODES", "LyapunovActorCriticLoss"]
 
 MODES = ("lac", "paper")
+#: The critic's TD loss: ``l2`` (:math:`\tfrac12 e^2`) or ``smooth_l1`` (Huber, threshold 1: the
+#: same :math:`\tfrac12 e^2` for :math:`|e| < 1`, :math:`|e| - \tfrac12` beyond, so one large
+#: target, such as a termination cost, weighs linearly, not quadratically).
+LOSS_FUNCTIONS = ("l2", "smooth_l1")
 
 
 class LyapunovActorCriticLoss(LossModule):
@@ -59,6 +63,7 @@ class LyapunovActorCriticLoss(LossModule):
         form: a Lyapunov form name (:data:`~torchrl_auv.objectives.FORMS`), or pass ``spec``.
         stability_weight: :math:`\\alpha > 0`.
         mode: ``"lac"`` (default) or ``"paper"``.
+        loss_function: the critic's TD loss, one of :data:`LOSS_FUNCTIONS` (default ``l2``).
         lambda_init, lambda_max: initial and largest Lagrange multiplier (> 0); ``log_lambda``
             itself is held at or below ``log(lambda_max)`` (no windup past the cap).
         beta_init: initial entropy temperature (> 0).
@@ -112,7 +117,12 @@ class LyapunovActorCriticLoss(LossModule):
         target_entropy: str | float = "auto",
         action_spec=None,
         spec: LyapunovSpec | None = None,
+        loss_function: str = "l2",
     ) -> None:
+        if loss_function not in LOSS_FUNCTIONS:
+            raise ValueError(
+                f"loss_function must be one of {LOSS_FUNCTIONS}, got {loss_function!r}"
+            )
         if form not in FORMS:
             raise ValueError(f"form must be one of {sorted(FORMS)}, got {form!r}")
         if mode not in MODES:
@@ -131,7 +141,7 @@ class LyapunovActorCriticLoss(LossModule):
         self.convert_to_functional(actor_network, "actor_network")
         self.convert_to_functional(lyapunov_network, "lyapunov_network", create_target_params=True)
         self.spec = spec if spec is not None else LyapunovSpec(form=form, alpha=stability_weight)
-        self.mode = mode
+        self.mode, self.loss_function = mode, loss_function
         self.lambda_max = float(lambda_max)
         self.log_lambda = torch.nn.Parameter(torch.tensor(float(lambda_init)).log())
         self.log_beta = torch.nn.Parameter(torch.tensor(float(beta_init)).log())
@@ -250,7 +260,10 @@ class LyapunovActorCriticLoss(LossModule):
             next_value = self._lyapunov(next_td, next_action, self.target_lyapunov_network_params)
             target = cost + self.gamma * (1 - terminated.to(cost.dtype)) * next_value
         value = self._lyapunov(td, action, critic_params)
-        loss_lyapunov = 0.5 * (value - target).square().mean()
+        if self.loss_function == "l2":
+            loss_lyapunov = 0.5 * (value - target).square().mean()
+        else:
+            loss_lyapunov = torch.nn.functional.smooth_l1_loss(value, target)
 
         # actor: lambda * DeltaL + beta * log pi, gradient through the sampled actions only
         new_action, log_prob = self._sample(td, actor_params)

@@ -209,12 +209,14 @@ def make_lac_loss(
     form: str = "softplus",
     stability_weight: float = 0.1,
     lambda_max: float = 1.0,
+    loss_function: str = "l2",
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout (trained
-    on ``("agents", "cost")``)."""
+    on ``("agents", "cost")``; ``loss_function``: the critic's TD loss, ``l2`` or
+    ``smooth_l1``)."""
     loss = LyapunovActorCriticLoss(
         actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
-        target_entropy=-float(_dims(env)[1]),
+        target_entropy=-float(_dims(env)[1]), loss_function=loss_function,
     )  # fmt: skip
     loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=(AGENTS, "cost"),
                   done=(AGENTS, "done"), terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW,

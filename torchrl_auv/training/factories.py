@@ -156,14 +156,16 @@ def make_sac_loss(
     alpha_init: float = 1.0,
     num_qvalue_nets: int = 2,
     tau: float = 0.005,
+    loss_function: str = "smooth_l1",
 ) -> tuple[SACLoss, SoftUpdate]:
     """TorchRL's ``SACLoss`` on the agents layout (reward ``== -cost``) and its target updater.
 
-    The target entropy is ``-action_dim`` per AUV.
+    The target entropy is ``-action_dim`` per AUV; ``loss_function`` is SACLoss's Q loss
+    (``smooth_l1``, SACLoss's own default, or ``l2``).
     """
     loss = SACLoss(actor_network=actor, qvalue_network=critic, num_qvalue_nets=num_qvalue_nets,
                    alpha_init=alpha_init, target_entropy=-float(_dims(env)[1]),
-                   delay_qvalue=True)  # fmt: skip
+                   delay_qvalue=True, loss_function=loss_function)  # fmt: skip
     loss.set_keys(action=ACTION, state_action_value=Q_VALUE, reward=(AGENTS, "reward"),
                   done=(AGENTS, "done"), terminated=(AGENTS, "terminated"))  # fmt: skip
     loss.make_value_estimator(gamma=gamma)
