@@ -155,17 +155,7 @@ class ProposerAlone(TensorDictModuleBase):
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         if self.replan_every > 1:
             return self._forward_chunked(tensordict)
-        proposer = self.proposer
-        if self.num_candidates is None:
-            proposer(tensordict)
-            candidates = tensordict.get(proposer.candidates_key)
-        else:
-            candidates, _ = proposer.sample(proposer.build_state(tensordict),
-                                            num_candidates=self.num_candidates,
-                                            generator=proposer.generator)  # fmt: skip
-            tensordict.set(proposer.candidates_key, candidates)
-            tensordict.set(proposer.first_actions_key, candidates[..., 0, :])
-        chunk = pick_candidate(candidates, self.pick)
+        chunk = pick_candidate(self._candidates(tensordict), self.pick)
         return tensordict.set(self.action_key, chunk[..., 0, :])
 
     def _forward_chunked(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -178,8 +168,9 @@ class ProposerAlone(TensorDictModuleBase):
         count = count.reshape(*count.shape[:-1], *(1,) * (len(batch) - count.dim() + 1))
         restarted = (count == 0).expand(batch)
         if self._plan is None or self._plan.shape[:-2] != batch:
-            self._plan, self._step = None, torch.zeros(batch, dtype=torch.long)
-            due = torch.ones(batch, dtype=torch.bool)
+            self._plan = None
+            self._step = torch.zeros(batch, dtype=torch.long, device=count.device)
+            due = torch.ones(batch, dtype=torch.bool, device=count.device)
         else:
             due = restarted | (self._step >= self.replan_every)
         if due.any():

@@ -147,6 +147,18 @@ def _scene_env(sea_state: str, history: int, **kwargs):
     return make_env(sea_state, **kwargs)
 
 
+def held_out_env(cfg: DictConfig, history: int, num_envs: int, steps: int) -> Callable:
+    """``(sea_state, seed) -> env`` for :func:`evaluate`: ``num_envs`` scenes of ``steps``
+    decisions with the run's controller and rate model (and a ``history``-long state-action
+    history when > 0)."""
+
+    def make(sea: str, seed: int):
+        return _scene_env(sea, history, seed=seed, num_envs=num_envs, max_steps=steps,
+                          controller=cfg.env.controller, rate_model=cfg.env.rate_model)  # fmt: skip
+
+    return make
+
+
 def buffer_from_config(cfg: DictConfig, run_dir: Path):
     """The replay buffer of ``cfg.replay_buffer`` (memmap under ``run_dir/replay``)."""
     rb = cfg.replay_buffer
@@ -291,11 +303,7 @@ class RunTracker:
         """One point of the learning curve (class docstring); returns its metrics."""
         cfg, began = self.cfg, time.perf_counter()
 
-        def curve_env(sea: str, seed: int):
-            return _scene_env(sea, self.history, seed=seed, num_envs=cfg.eval.curve_envs,
-                              controller=cfg.env.controller, rate_model=cfg.env.rate_model,
-                              max_steps=cfg.eval.curve_steps)  # fmt: skip
-
+        curve_env = held_out_env(cfg, self.history, cfg.eval.curve_envs, cfg.eval.curve_steps)
         row = evaluate(curve_env, {"policy": lambda _: self.eval_policy}, [cfg.env.sea_state],
                        seed=cfg.eval.seed, steps=cfg.eval.curve_steps)[0]  # fmt: skip
         seconds = time.perf_counter() - began
@@ -351,11 +359,7 @@ def finish_run(
     ``eval.csv`` and ``summary.md``, log ``eval/<sea>/<policy>/<metric>`` and close the
     logger. Returns the summary's path."""
 
-    def eval_env(sea: str, seed: int):
-        return _scene_env(sea, history, seed=seed, num_envs=cfg.eval.num_envs,
-                          controller=cfg.env.controller, rate_model=cfg.env.rate_model,
-                          max_steps=cfg.eval.steps)  # fmt: skip
-
+    eval_env = held_out_env(cfg, history, cfg.eval.num_envs, cfg.eval.steps)
     rows = evaluate(eval_env, policies, cfg.eval.sea_states, seed=cfg.eval.seed,
                     steps=cfg.eval.steps)  # fmt: skip
     write_eval(rows, run_dir)
