@@ -33,6 +33,7 @@ from torchrl_auv.training import diffusion
 
 log = logging.getLogger(__name__)
 LOGGED_LOSS_KEYS = ("loss_actor", "loss_lyapunov", "lambda", "beta", "violation_rate", "delta_l")
+TASK_CRITIC_KEYS = ("loss_qvalue", "qvalue")  # with lyapunov.cost=stability
 
 
 def make_advisor(cfg: DictConfig):
@@ -65,7 +66,8 @@ def main(cfg: DictConfig) -> None:
                                    form=cfg.advisor.form,
                                    stability_weight=cfg.advisor.stability_weight,
                                    lambda_max=cfg.optim.lambda_max,
-                                   loss_function=cfg.optim.loss_function)  # fmt: skip
+                                   loss_function=cfg.optim.loss_function,
+                                   cost=cfg.lyapunov.cost, hidden=cfg.network.hidden)  # fmt: skip
     target_updater = SoftUpdate(loss, tau=cfg.optim.tau)
     policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov",
                                              actor=actor if cfg.selection.include_actor else None,
@@ -107,7 +109,8 @@ def main(cfg: DictConfig) -> None:
         trigger.step(progress["frames"], feedback, loss)
         selector.spec = loss.spec
         collector.update_policy_weights_()  # workers: new weights and Lyapunov form
-        metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS}
+        metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS + TASK_CRITIC_KEYS
+                   if k in out.keys()}  # fmt: skip
         metrics["train/form_index"] = advisors.FORM_ORDER.index(loss.spec.form)
         tracker.step(data, metrics, loss.spec)
     facts = {**stage.facts, **tracker.finish(collector)}

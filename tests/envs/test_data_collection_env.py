@@ -206,6 +206,28 @@ def test_leaving_the_area_terminates_with_the_termination_cost():
     out = env.step(td)["next"]
     assert out["terminated"].all() and not out["truncated"].any()
     assert out["agents", "cost"].item() >= env.termination_cost
+    stability_end = env.cost_weights.stability_termination_cost()
+    assert stability_end == pytest.approx(12.0 / (1 - 0.99))
+    assert out["agents", "stability_cost"].item() >= stability_end
+
+
+def test_the_stability_cost_is_zero_in_service_and_sums_the_terms_that_vanish_there():
+    """The expert serves nodes (in service: distance and regress 0); the stability cost is the
+    distance, regress, collision and violation terms alone, so data still waiting (which the
+    task cost carries in service) does not count."""
+    env = DataCollectionEnv(batch_size=[2], seed=2, rate_model="paper")
+    td = env.rollout(120, ScriptedExpert(env), break_when_any_done=False)
+    nxt = td["next"]
+    stability, cost = nxt["agents", "stability_cost"][..., 0], nxt["agents", "cost"][..., 0]
+    terms = nxt["cost_terms"]
+    by_hand = terms["distance"] + terms["regress"] + terms["collision"] + terms["violation"]
+    torch.testing.assert_close(stability, by_hand)
+    serving = nxt["task", "auvs", "in_service"] & (terms["violation"] == 0) & (terms["collision"] == 0)
+    assert serving.any() and (stability[serving] == 0).all() and (cost[serving] > 0).all()
+    assert (stability[~serving] > 0).any()
+    assert (stability <= env.cost_weights.max_stability_cost() + 1e-5).all()
+    flat = DataCollectionEnv(batch_size=[2], seed=2, flatten_agents=True)
+    assert flat.rollout(3)["next", "stability_cost"].shape == (2, 3, 1)
 
 
 def test_history_transform_on_the_multi_agent_env():

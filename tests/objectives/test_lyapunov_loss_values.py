@@ -5,7 +5,11 @@ known log-density, and the critic is one linear layer with weights set here, so 
 of the module docstring (paper eqs. 20-28, LAC) can be written out in plain torch in the test:
 the critic target with the discount, the terminated mask and the *target* network, the decrease
 :math:`\\Delta L` in both modes, the actor's :math:`\\lambda \\Delta L + \\beta \\log\\pi`, and the
-two dual losses, for every form and prior.
+two dual losses, for every form and prior; with a task Q critic (``qvalue_network``) its TD
+loss and the actor's ``Q(s, pi(s))``; and the module docstring's derivation: with a critic
+equal to the true discounted cost-to-go, the decrease term is ``(1 - gamma) L(s') - (1 - alpha)
+c``, positive for a cost that does not vanish, non-positive along a trajectory whose cost falls
+to zero at the goal.
 """
 
 from __future__ import annotations
@@ -236,3 +240,142 @@ def test_the_critic_gradient_is_the_hand_derivative():
     target = data["next", "cost"] + 0.99 * (1 - data["next", "terminated"].float()) * next_target
     grad_b = ((value - target) * 2 * raw).mean(0)
     torch.testing.assert_close(loss.lyapunov_network_params["module", "bias"].grad, grad_b)
+
+
+# the task critic's numbers (one output; chosen, not read off the code)
+WQ = torch.tensor([[0.7, 0.1, -0.4, 0.3, 0.9]])
+BQ = torch.tensor([1.5])
+WQ_TARGET, BQ_TARGET = WQ - 0.25, BQ + 0.5
+
+
+def _two_critic_loss(spec):
+    actor, critic = _modules()
+    q = ValueOperator(_Affine(WQ, BQ), in_keys=["observation", "action"], out_keys=["task_q"])
+    loss = LyapunovActorCriticLoss(
+        actor, critic, spec=spec, lambda_init=0.7, lambda_max=1.0, beta_init=0.3,
+        target_entropy=-1.5, qvalue_network=q,
+    )  # fmt: skip
+    loss.set_keys(cost="stability_cost", task_cost="cost", qvalue="task_q")
+    with torch.no_grad():
+        loss.target_lyapunov_network_params["module", "weight"].copy_(W_TARGET)
+        loss.target_lyapunov_network_params["module", "bias"].copy_(B_TARGET)
+        loss.target_qvalue_network_params["module", "weight"].copy_(WQ_TARGET)
+        loss.target_qvalue_network_params["module", "bias"].copy_(BQ_TARGET)
+    loss.make_value_estimator(gamma=0.9)
+    return loss
+
+
+def test_the_task_critic_learns_the_task_cost_and_the_actor_minimises_it():
+    spec = LyapunovSpec(form="softplus", alpha=0.3)
+    loss = _two_critic_loss(spec)
+    data = _data()
+    g = torch.Generator().manual_seed(1)
+    data["next", "stability_cost"] = torch.rand(data.shape[0], 1, generator=g)
+    obs, action, nobs = data["observation"], data["action"], data["next", "observation"]
+    task_cost, cost = data["next", "cost"], data["next", "stability_cost"]
+    term = data["next", "terminated"].float()
+    policy = lambda o: o @ A.T + A0  # noqa: E731  (the Dirac actor)
+    q = lambda o, a, w=WQ, b=BQ: torch.cat([o, a], -1) @ w.T + b  # noqa: E731
+
+    value = _hand_l(obs, action, spec)
+    l_target = cost + 0.9 * (1 - term) * _hand_l(nobs, policy(nobs), spec, W_TARGET, B_TARGET)
+    q_target = task_cost + 0.9 * (1 - term) * q(nobs, policy(nobs), WQ_TARGET, BQ_TARGET)
+    delta = _hand_l(nobs, policy(nobs), spec) - value + 0.3 * cost
+    log_pi = -0.5 * (policy(obs) ** 2).sum(-1) + LOG_PROB_SHIFT
+    expected = {
+        "loss_lyapunov": 0.5 * ((value - l_target) ** 2).mean(),
+        "loss_qvalue": 0.5 * ((q(obs, action) - q_target) ** 2).mean(),
+        "qvalue": q(obs, action).mean(),
+        "delta_l": delta.mean(),
+        "loss_actor": q(obs, policy(obs)).mean() + 0.7 * delta.mean() + 0.3 * log_pi.mean(),
+        "loss_lambda": -torch.log(torch.tensor(0.7)) * delta.mean(),
+    }
+    out = loss(data)
+    for key, val in expected.items():
+        torch.testing.assert_close(out[key], val, rtol=1e-5, atol=1e-6,
+                                   msg=lambda m, key=key: f"{key}: {m}")  # fmt: skip
+    assert set(expected) <= set(loss.out_keys)
+
+    # gradients: the Q loss reaches only the Q critic, the actor loss only the actor
+    loss.zero_grad()
+    out["loss_qvalue"].backward(retain_graph=True)
+    assert loss.qvalue_network_params["module", "weight"].grad.abs().sum() > 0
+    assert all(p.grad is None or p.grad.abs().sum() == 0
+               for p in loss.actor_network_params.values(True, True))  # fmt: skip
+    loss.zero_grad()
+    out["loss_actor"].backward()
+    assert loss.actor_network_params["module", "0", "module", "weight"].grad.abs().sum() > 0
+    for params in (loss.qvalue_network_params, loss.lyapunov_network_params):
+        assert all(p.grad is None or p.grad.abs().sum() == 0 for p in params.values(True, True))
+
+
+def test_without_a_task_critic_the_loss_is_lac_as_published():
+    actor, critic = _modules()
+    loss = LyapunovActorCriticLoss(actor, critic)
+    assert loss.qvalue_network is None
+    assert "loss_qvalue" not in loss.out_keys
+    assert "loss_qvalue" not in loss(_data()).keys()
+
+
+class _CostToGo(nn.Module):
+    """``sqrt(L*)`` is observation entry 0: with the "squared" form the critic is the true
+    cost-to-go ``L*``, whatever the action."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.unused = nn.Parameter(torch.zeros(1))
+
+    def forward(self, observation: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        return observation[..., :1] + 0 * self.unused
+
+
+def _chain(costs: torch.Tensor, gamma: float, tail: float) -> TensorDict:
+    """Transitions of a deterministic chain with these per-step costs; ``tail`` is the
+    cost-to-go after the last one. The critic reads the exact discounted cost-to-go."""
+    to_go = [tail]
+    for c in reversed(costs.tolist()):
+        to_go.insert(0, c + gamma * to_go[0])
+    root = torch.tensor(to_go).sqrt()[:, None]
+    n = costs.numel()
+    return TensorDict(
+        {
+            "observation": root[:-1],
+            "action": torch.zeros(n, 1),
+            "next": {
+                "observation": root[1:],
+                "cost": costs[:, None],
+                "terminated": torch.zeros(n, 1, dtype=torch.bool),
+            },
+        },
+        batch_size=[n],
+    )
+
+
+@pytest.mark.parametrize("alpha", [0.1, 0.3])
+def test_the_decrease_condition_fails_for_a_stationary_cost_and_holds_for_a_vanishing_one(alpha):
+    gamma = 0.97
+    actor = ProbabilisticActor(
+        TensorDictModule(nn.Linear(1, 1), in_keys=["observation"], out_keys=["loc"]),
+        in_keys=["loc"], distribution_class=_Dirac,
+    )  # fmt: skip
+    critic = ValueOperator(_CostToGo(), in_keys=["observation", "action"])
+    loss = LyapunovActorCriticLoss(actor, critic, spec=LyapunovSpec(form="squared", alpha=alpha))
+    loss.make_value_estimator(gamma=gamma)
+
+    def delta(data):
+        out = loss(data)
+        after, cost = data["next", "observation"][:, 0] ** 2, data["next", "cost"][:, 0]
+        closed_form = (1 - gamma) * after - (1 - alpha) * cost  # the docstring's identity
+        torch.testing.assert_close(out["delta_l"], closed_form.mean(), rtol=1e-4, atol=1e-4)
+        return out
+
+    # a cost that never vanishes (as the waiting data): 1 per step for ever
+    stationary = _chain(torch.ones(50), gamma, tail=1.0 / (1 - gamma))
+    out = delta(stationary)
+    assert out["violation_rate"] == 1.0
+    torch.testing.assert_close(out["delta_l"], torch.tensor(alpha), rtol=1e-3, atol=1e-3)
+    # a cost that falls to zero at the goal (closing on a target 100 m away at 1.5 m/step)
+    approach = torch.clamp(torch.arange(100.0, 0.0, -1.5) / 283.0, min=0.0)
+    vanishing = _chain(torch.cat([approach, torch.zeros(20)]), gamma, tail=0.0)
+    out = delta(vanishing)
+    assert out["violation_rate"] == 0.0 and out["delta_l"] < 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 import torch
+from omegaconf import OmegaConf
 from tensordict import TensorDict
 
 from torchrl_auv import training
@@ -27,7 +28,8 @@ from torchrl_auv.training import diffusion
      ({"proposer": {"alone_replan_every": 0}}, "proposer.alone_replan_every"),
      ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every"),
      ({"selection": {"include_actor": "yes"}}, "selection.include_actor"),
-     ({"optim": {"loss_function": "l1"}}, "optim.loss_function")],
+     ({"optim": {"loss_function": "l1"}}, "optim.loss_function"),
+     ({"lyapunov": {"cost": "energy"}}, "lyapunov.cost")],
 )  # fmt: skip
 def test_check_choices_names_the_key(cfg, named):
     with pytest.raises(ValueError, match=named.replace(".", r"\.")):
@@ -46,8 +48,9 @@ def test_the_replay_buffer_stores_only_what_the_losses_read():
     stored = training.select_for_replay(rollout)
     assert stored.batch_size == (6,)
     assert set(stored.keys(True, True)) == set(training.REPLAY_KEYS)
-    # 2 AUVs: obs 37 + 37 (next) + action 3 + reward, cost float32; done, terminated bool
-    expected = 2 * ((37 + 37 + 3 + 1 + 1) * 4 + 2 * 1)
+    # 2 AUVs: obs 37 + 37 (next) + action 3 + reward, cost, stability cost float32; done,
+    # terminated bool
+    expected = 2 * ((37 + 37 + 3 + 1 + 1 + 1) * 4 + 2 * 1)
     assert training.bytes_per_frame(stored[0]) == expected
     whole = sum(t.numel() * t.element_size() for t in rollout[0, 0].values(True, True))
     assert whole > 20 * expected  # the env's tensordict carries the simulator state
@@ -209,3 +212,55 @@ def test_the_critic_loss_functions_reach_the_losses():
     assert diffusion.make_lac_loss(actor, lyapunov, env).loss_function == "l2"
     huber = diffusion.make_lac_loss(actor, lyapunov, env, loss_function="smooth_l1")
     assert huber.loss_function == "smooth_l1"
+
+
+def test_the_lyapunov_cost_choice_sets_what_each_critic_learns():
+    """lyapunov.cost=task: one critic on the task cost (the paper); stability: the Lyapunov
+    critic on the stability cost and a task Q critic on the cost, both trained by the loss,
+    both in the critics' optimiser, both soft-updated."""
+    from torchrl.objectives import SoftUpdate
+
+    env = training.make_env("ideal", seed=0, num_envs=2, max_steps=5)
+    actor, lyapunov = training.make_actor(env, (8,)), diffusion.make_lyapunov_critic(env, (8,))
+    task = diffusion.make_lac_loss(actor, lyapunov, env)
+    assert task.qvalue_network is None and task.tensor_keys.cost == ("agents", "cost")
+    stable = diffusion.make_lac_loss(actor, lyapunov, env, cost="stability", hidden=(8,))
+    assert stable.tensor_keys.cost == ("agents", "stability_cost")
+    assert stable.tensor_keys.task_cost == ("agents", "cost")
+    updater = SoftUpdate(stable, tau=0.5)  # before any forward, as the recipes do
+    data = training.select_for_replay(env.rollout(4, actor))
+    out = stable(data)
+    assert torch.isfinite(out["loss_qvalue"]) and torch.isfinite(out["loss_lyapunov"])
+    optimisers = diffusion.lac_optimisers(
+        stable, OmegaConf.create({"actor_lr": 1e-3, "critic_lr": 1e-3, "dual_lr": 1e-3})
+    )
+    critic_params = {id(p) for g in optimisers["critic_optim"].param_groups for p in g["params"]}
+    assert {id(p) for p in stable.qvalue_network_params.values(True, True)} <= critic_params
+    before = [p.detach().clone() for p in stable.target_qvalue_network_params.values(True, True)]
+    training.gradient_step(stable, optimisers, updater, data)
+    after = stable.target_qvalue_network_params.values(True, True)
+    assert any((a != b).any() for a, b in zip(after, before))
+    with pytest.raises(ValueError, match="cost must be one of"):
+        diffusion.make_lac_loss(actor, lyapunov, env, cost="energy")
+
+
+def test_close_logger_finishes_wandb_runs_and_leaves_other_loggers(tmp_path):
+    from torchrl.record.loggers import CSVLogger
+
+    training.close_logger(None)
+    csv = CSVLogger("run", log_dir=str(tmp_path))
+    csv.log_scalar("x", 1.0, step=0)
+    training.close_logger(csv)  # TorchRL's CSV experiment has no finish(): nothing to do
+
+    class _Run:
+        finished = False
+
+        def finish(self):
+            self.finished = True
+
+    class _Logger:
+        experiment = _Run()
+
+    logger = _Logger()
+    training.close_logger(logger)
+    assert logger.experiment.finished

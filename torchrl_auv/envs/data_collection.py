@@ -142,6 +142,13 @@ class DataCollectionEnv(EnvBase):
     learning signal for every framework). ``"cost_terms"`` holds the weighted terms. Flat: the
     sums over AUVs, ``[*B, 1]``.
 
+    **Stability cost** ``("agents", "stability_cost")`` ``[*B, N, 1]`` (flat: the sum,
+    ``"stability_cost"``): :func:`torchrl_auv.iout.stability_cost`, the distance, regress,
+    collision and violation terms alone (0 in service, at most 12 per AUV), plus
+    :math:`12 / (1 - 0.99) = 1200` for the AUV that ends the episode: the cost a Lyapunov
+    critic can decrease along trajectories (``lyapunov.cost=stability``); not part of the
+    reward.
+
     **Start state.** Per scene a new seabed, node positions, rates and initial fills
     (U(0, 1000) packets), a new ocean (as deep as the scene's mean seabed), the AUVs 20 m apart
     on a circle around a random point 20 m or more inside the area, 5-10 m deep, random heading,
@@ -301,6 +308,7 @@ class DataCollectionEnv(EnvBase):
             self.full_reward_spec = Composite(
                 reward=Unbounded(shape=(*shape, 1), dtype=torch.float32),
                 cost=Unbounded(shape=(*shape, 1), dtype=torch.float32),
+                stability_cost=Unbounded(shape=(*shape, 1), dtype=torch.float32),
                 shape=shape,
             )
             self.full_done_spec = Composite(bool_flags(shape), shape=shape)
@@ -319,6 +327,7 @@ class DataCollectionEnv(EnvBase):
                 agents=Composite(
                     reward=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
                     cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
+                    stability_cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
                     shape=agent_shape,
                 ),
                 shape=shape,
@@ -546,6 +555,9 @@ class DataCollectionEnv(EnvBase):
         ending = diverged(eta, nu, act) | outside  # [*B, N]
         extra = torch.where(ending, self.termination_cost, 0.0)
         cost = torch.nan_to_num(cost + extra, nan=self.termination_cost)
+        stability_end = self.cost_weights.stability_termination_cost()
+        stability = iout.stability_cost(terms) + torch.where(ending, stability_end, 0.0)
+        stability = torch.nan_to_num(stability, nan=stability_end)
         step_count = td["step_count"] + 1
         terminated = ending.any(-1, keepdim=True)
         time_up = step_count >= self.max_steps
@@ -578,9 +590,11 @@ class DataCollectionEnv(EnvBase):
         )
         self._write_observation(out, out)
         cost = cost.to(torch.float32)[..., None]
+        stability = stability.to(torch.float32)[..., None]
         if self.flatten_agents:
             out["cost"] = cost.sum(-2)
             out["reward"] = -out["cost"]
+            out["stability_cost"] = stability.sum(-2)
         else:
             # the AUV that ends the episode is terminated; the others are truncated (they
             # bootstrap: their cost-to-go does not end with their peer's exit)
@@ -590,6 +604,7 @@ class DataCollectionEnv(EnvBase):
                     "observation": out["agents", "observation"],
                     "cost": cost,
                     "reward": -cost,
+                    "stability_cost": stability,
                     "terminated": agent_terminated,
                     "truncated": done[..., None, :].expand_as(agent_terminated) & ~agent_terminated,
                     "done": done[..., None, :].expand_as(agent_terminated).clone(),

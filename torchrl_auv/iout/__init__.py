@@ -31,7 +31,13 @@ from torchrl_auv.iout.link import link_rate
 from torchrl_auv.iout.metrics import METRIC_KEYS, TaskMetrics
 from torchrl_auv.iout.nodes import data_arrivals, sample_nodes
 from torchrl_auv.iout.observation import OBSERVATION_FEATURES, task_observation
-from torchrl_auv.iout.reward import COST_TERMS, CostWeights, task_cost
+from torchrl_auv.iout.reward import (
+    COST_TERMS,
+    STABILITY_TERMS,
+    CostWeights,
+    stability_cost,
+    task_cost,
+)
 from torchrl_auv.iout.safety import collision_mask, nearest_auv_distance, violation_mask
 from torchrl_auv.iout.service import reset_state, sample_auv_start, step
 from torchrl_auv.iout.station_keeping import StationKeepingConfig, station_keeping_setpoints
@@ -43,6 +49,7 @@ __all__ = [
     "METRIC_KEYS",
     "NO_TARGET",
     "OBSERVATION_FEATURES",
+    "STABILITY_TERMS",
     "CostWeights",
     "ExpertConfig",
     "IoUTConfig",
@@ -63,6 +70,7 @@ __all__ = [
     "sample_auv_start",
     "sample_nodes",
     "seabed_depth",
+    "stability_cost",
     "station_keeping_setpoints",
     "step",
     "task_cost",

@@ -22,6 +22,20 @@ this term for as long as the node refills) and :math:`N_{DO}` the packets overfl
 decision, normalised by the packets expected per decision. The last two are properties of the
 scene, not of an AUV: each AUV carries :math:`1/N` of them, so the scene's total (and the flat
 layout's summed cost) counts them once. The reward is exactly :math:`-c_j`.
+
+**Stability cost** (:func:`stability_cost`, ours; the Lyapunov critic's cost with
+``lyapunov.cost=stability``): the AUV's own terms that say where it is against where it should
+be,
+
+.. math::
+
+    c^{stab}_j = w_d \min\!\Big(1, \frac{d_j}{D}\Big)
+        + w_p \min\!\Big(1, \frac{\max(0, -\Delta_j)}{v_{ref}\,\Delta t}\Big)
+        + w_c\, \mathbb{1}[\text{collision}_j] + w_v\, \mathbb{1}[\text{violation}_j],
+
+which is 0 in service (at its node, inside the area, clear of the others) and falls as the
+AUV closes on its target: unlike :math:`c_j`, whose waiting-data term never vanishes, it can
+satisfy a Lyapunov decrease condition (:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss`).
 """
 
 from __future__ import annotations
@@ -34,10 +48,12 @@ from tensordict import TensorDict
 from torchrl_auv.iout.config import IoUTConfig
 from torchrl_auv.physics.energy import decision_power
 
-__all__ = ["COST_TERMS", "CostWeights", "task_cost"]
+__all__ = ["COST_TERMS", "STABILITY_TERMS", "CostWeights", "stability_cost", "task_cost"]
 
 #: the names of the cost's terms, in the order of the module docstring
 COST_TERMS = ("distance", "regress", "energy", "collision", "violation", "waiting", "overflow")
+#: the terms of :func:`stability_cost` (those that vanish in service)
+STABILITY_TERMS = ("distance", "regress", "collision", "violation")
 
 
 @dataclass(frozen=True)
@@ -111,6 +127,15 @@ class CostWeights:
         ending an episode is never cheaper than continuing it, per AUV or for the scene."""
         return num_auvs * self.max_cost(num_auvs) / (1.0 - self.max_discount)
 
+    def max_stability_cost(self) -> float:
+        """The largest :func:`stability_cost` of one AUV in one decision (its terms at 1)."""
+        return self.distance + self.regress + self.collision + self.violation
+
+    def stability_termination_cost(self) -> float:
+        """The terminal stability cost of the AUV that ends an episode,
+        :math:`c^{stab}_{max} / (1 - \\gamma_{max})`: leaving is never cheaper than staying."""
+        return self.max_stability_cost() / (1.0 - self.max_discount)
+
 
 def task_cost(
     events: TensorDict,
@@ -176,3 +201,20 @@ def task_cost(
     )
     cost = distance + regress + energy + collision + violation + shared
     return cost, terms
+
+
+def stability_cost(terms: TensorDict) -> torch.Tensor:
+    """The stability cost per AUV (module docstring): the sum of the weighted
+    :data:`STABILITY_TERMS` of :func:`task_cost`'s ``terms``, ``[*B, N]``, 0 in service.
+
+    Examples:
+        >>> events = TensorDict({
+        ...     "target_distance": torch.tensor([0.0]), "progress": torch.tensor([0.0]),
+        ...     "hovering": torch.tensor([True]), "collision": torch.tensor([False]),
+        ...     "violation": torch.tensor([False]), "overflow": torch.tensor(0.0)})
+        >>> cost, terms = task_cost(events, torch.tensor([0.0]), torch.tensor([2500.0]),
+        ...                         torch.tensor([4.0]), IoUTConfig(num_auvs=1, num_sensors=1))
+        >>> stability_cost(terms).item(), cost.item() > 0  # in service: stable, yet data wait
+        (0.0, True)
+    """
+    return sum(terms[name] for name in STABILITY_TERMS)

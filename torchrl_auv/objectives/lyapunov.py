@@ -25,6 +25,36 @@ actions; the critic is detached), :math:`\mathcal L_\lambda` to :math:`\log\lamb
 \le 0` is feasible for :math:`\alpha < 1` and is the one LAC's stability proof uses. The paper's
 eq. 25 as printed compares two actions at the same state (an advantage-like quantity that says
 nothing about the decrease along trajectories); it is available as ``mode="paper"``.
+
+**Which cost the critic learns.** For a critic equal to the true discounted cost-to-go,
+:math:`L(s, a) = c + \gamma L(s', a')`, so along the policy's transitions
+
+.. math::
+
+    \Delta L = L(s', a') - L(s, a) + \alpha c = (1 - \gamma)\, L(s', a') - (1 - \alpha)\, c .
+
+If the cost is roughly stationary (:math:`c' \approx c`, :math:`L \approx c / (1 - \gamma)`),
+:math:`\Delta L \approx \alpha c > 0` for every :math:`\alpha > 0`: the decrease condition of
+Han et al. cannot hold for a cost that does not vanish. It is built for stabilisation, a cost
+that is zero where the system should be and falls along the trajectories that reach it (e.g.
+:math:`c_k = c_0 - k\delta` until arrival gives :math:`\Delta L < 0` once
+:math:`(1 - \gamma) L(s') < (1 - \alpha) c`). The data-collection task cost carries the data
+still waiting in the nodes, which never vanishes (46-59 % of the expert's cost), so with the
+task cost the constraint is infeasible; :func:`torchrl_auv.iout.stability_cost` (distance and
+regress toward the target, collisions, violations: 0 in service) can satisfy it.
+
+**Two critics** (``qvalue_network``, paper Algorithm 1 initialises both :math:`Q_\psi` and
+:math:`L_\xi`). Without it, the actor optimises the task through :math:`L` alone (LAC: the
+critic learns the ``cost`` key, the task cost). With it, :math:`L` learns the ``cost`` key
+(set it to the stability cost) and carries only the constraint, while a Q critic learns the
+``task_cost`` key by the same TD(0) rule and the actor minimises the task:
+
+.. math::
+
+    \mathcal L_{Q} = \mathbb E\big[(Q(s, a) - c^{task} - \gamma (1 - d)\,
+        Q_{target}(s', a'))^2\big] \qquad
+    \mathcal L_{\pi} = \mathbb E[Q(s, \tilde a)] + \bar\lambda\,\mathbb E[\Delta L]
+        + \bar\beta\,\mathbb E[\log\pi],\ \tilde a \sim \pi(s).
 """
 
 from __future__ import annotations
@@ -71,13 +101,38 @@ class LyapunovActorCriticLoss(LossModule):
         action_spec: optional, for the ``"auto"`` target entropy.
         spec: a full :class:`~torchrl_auv.objectives.LyapunovSpec` (overrides ``form`` and
             ``stability_weight``).
+        qvalue_network: optional task critic (a ``ValueOperator``-like module reading
+            observation and action, writing the ``qvalue`` key): trained on ``task_cost``, it
+            gives the actor the task objective while the Lyapunov critic, trained on ``cost``,
+            gives the constraint (module docstring, "Two critics"). ``None``: LAC as published.
 
-    Keys (``set_keys``): ``action``, ``reward``, ``cost``, ``done``, ``terminated``,
-    ``value`` (the critic's out key), ``observation`` (read by a prior), ``log_prob``.
+    Keys (``set_keys``): ``action``, ``reward``, ``cost`` (the Lyapunov critic's cost; ``-reward``
+    when absent), ``task_cost`` (the Q critic's; ``-reward`` when absent), ``done``,
+    ``terminated``, ``value`` (the Lyapunov critic's out key), ``qvalue`` (the Q critic's out
+    key), ``observation`` (read by a prior), ``log_prob``.
 
     Output: ``loss_actor``, ``loss_lyapunov``, ``loss_lambda``, ``loss_beta`` and detached
     ``lambda``, ``beta``, ``delta_l`` (mean), ``violation_rate`` (fraction of
-    :math:`\\Delta L > 0`), ``lyapunov_value`` (mean), ``negative_cost_fraction``.
+    :math:`\\Delta L > 0`), ``lyapunov_value`` (mean), ``negative_cost_fraction``; with a
+    ``qvalue_network`` also ``loss_qvalue`` and ``qvalue`` (mean).
+
+    Examples:
+        >>> from tensordict.nn import NormalParamExtractor
+        >>> from torchrl.modules import MLP, ProbabilisticActor, TanhNormal, ValueOperator
+        >>> net = torch.nn.Sequential(MLP(3, 2, num_cells=[16]), NormalParamExtractor())
+        >>> actor = ProbabilisticActor(TensorDictModule(net, ["observation"], ["loc", "scale"]),
+        ...     in_keys=["loc", "scale"], distribution_class=TanhNormal)
+        >>> critic = ValueOperator(MLP(4, 1, num_cells=[16]), ["observation", "action"])
+        >>> q = ValueOperator(MLP(4, 1, num_cells=[16]), ["observation", "action"],
+        ...                   out_keys=["task_value"])
+        >>> loss = LyapunovActorCriticLoss(actor, critic, qvalue_network=q)
+        >>> loss.set_keys(cost="stability_cost", task_cost="cost", qvalue="task_value")
+        >>> td = TensorDict({"observation": torch.randn(4, 3), "action": torch.rand(4, 1),
+        ...     "next": {"observation": torch.randn(4, 3), "cost": torch.rand(4, 1),
+        ...              "stability_cost": torch.rand(4, 1), "reward": torch.zeros(4, 1),
+        ...              "terminated": torch.zeros(4, 1, dtype=torch.bool)}}, [4])
+        >>> sorted(k for k in loss(td).keys() if k.startswith("loss_"))
+        ['loss_actor', 'loss_beta', 'loss_lambda', 'loss_lyapunov', 'loss_qvalue']
     """
 
     @dataclass
@@ -87,9 +142,11 @@ class LyapunovActorCriticLoss(LossModule):
         action: NestedKey = "action"
         reward: NestedKey = "reward"
         cost: NestedKey = "cost"
+        task_cost: NestedKey = "cost"
         done: NestedKey = "done"
         terminated: NestedKey = "terminated"
         value: NestedKey = "state_action_value"
+        qvalue: NestedKey = "state_action_value"
         observation: NestedKey = "observation"
         log_prob: NestedKey = "action_log_prob"
 
@@ -102,6 +159,9 @@ class LyapunovActorCriticLoss(LossModule):
     lyapunov_network: TensorDictModule
     lyapunov_network_params: TensorDictParams
     target_lyapunov_network_params: TensorDictParams
+    qvalue_network: TensorDictModule | None
+    qvalue_network_params: TensorDictParams | None
+    target_qvalue_network_params: TensorDictParams | None
 
     def __init__(
         self,
@@ -118,6 +178,7 @@ class LyapunovActorCriticLoss(LossModule):
         action_spec=None,
         spec: LyapunovSpec | None = None,
         loss_function: str = "l2",
+        qvalue_network: TensorDictModule | None = None,
     ) -> None:
         if loss_function not in LOSS_FUNCTIONS:
             raise ValueError(
@@ -140,6 +201,10 @@ class LyapunovActorCriticLoss(LossModule):
         super().__init__()
         self.convert_to_functional(actor_network, "actor_network")
         self.convert_to_functional(lyapunov_network, "lyapunov_network", create_target_params=True)
+        if qvalue_network is not None:
+            self.convert_to_functional(qvalue_network, "qvalue_network", create_target_params=True)
+        else:
+            self.qvalue_network = None
         self.spec = spec if spec is not None else LyapunovSpec(form=form, alpha=stability_weight)
         self.mode, self.loss_function = mode, loss_function
         self.lambda_max = float(lambda_max)
@@ -201,8 +266,9 @@ class LyapunovActorCriticLoss(LossModule):
     @property
     def out_keys(self) -> list[str]:
         losses = ["loss_actor", "loss_lyapunov", "loss_lambda", "loss_beta"]
+        task = ["loss_qvalue", "qvalue"] if self.qvalue_network is not None else []
         return [*losses, "lambda", "beta", "delta_l", "violation_rate", "lyapunov_value",
-                "negative_cost_fraction"]  # fmt: skip
+                "negative_cost_fraction", *task]  # fmt: skip
 
     # -- pieces ----------------------------------------------------------------------------
     def _sample(self, td: TensorDictBase, params) -> tuple[torch.Tensor, torch.Tensor]:
@@ -224,17 +290,32 @@ class LyapunovActorCriticLoss(LossModule):
         observation = td.get(self.tensor_keys.observation, None) if self.spec.prior else None
         return lyapunov_value(raw, self.spec, observation)
 
-    def _cost(self, next_td: TensorDictBase) -> torch.Tensor:
-        cost = next_td.get(self.tensor_keys.cost, None)
+    def _qvalue(self, td: TensorDictBase, action: torch.Tensor, params) -> torch.Tensor:
+        """The task critic's ``Q(s, action)`` ``[*B, 1]`` with ``params``."""
+        td = td.select(*self.qvalue_network.in_keys, strict=False).copy()
+        td.set(self.tensor_keys.action, action)
+        with params.to_module(self.qvalue_network):
+            return self.qvalue_network(td).get(self.tensor_keys.qvalue)
+
+    def _cost(self, next_td: TensorDictBase, key: NestedKey | None = None) -> torch.Tensor:
+        """The cost under ``key`` (default: the ``cost`` key), else ``-reward``."""
+        key = self.tensor_keys.cost if key is None else key
+        cost = next_td.get(key, None)
         if cost is None:
             reward = next_td.get(self.tensor_keys.reward, None)
             if reward is None:
                 raise ValueError(
-                    f"neither the cost key {self.tensor_keys.cost!r} nor the reward key "
+                    f"neither the cost key {key!r} nor the reward key "
                     f"{self.tensor_keys.reward!r} is in the data's 'next' entry"
                 )
             cost = -reward
         return cost
+
+    def _td_loss(self, value: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        """The critics' TD loss (``loss_function``)."""
+        if self.loss_function == "l2":
+            return 0.5 * (value - target).square().mean()
+        return torch.nn.functional.smooth_l1_loss(value, target)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDict:
         self._clamp_log_lambda()
@@ -260,10 +341,8 @@ class LyapunovActorCriticLoss(LossModule):
             next_value = self._lyapunov(next_td, next_action, self.target_lyapunov_network_params)
             target = cost + self.gamma * (1 - terminated.to(cost.dtype)) * next_value
         value = self._lyapunov(td, action, critic_params)
-        if self.loss_function == "l2":
-            loss_lyapunov = 0.5 * (value - target).square().mean()
-        else:
-            loss_lyapunov = torch.nn.functional.smooth_l1_loss(value, target)
+        loss_lyapunov = self._td_loss(value, target)
+        continues = 1 - terminated.to(cost.dtype)
 
         # actor: lambda * DeltaL + beta * log pi, gradient through the sampled actions only
         new_action, log_prob = self._sample(td, actor_params)
@@ -274,6 +353,16 @@ class LyapunovActorCriticLoss(LossModule):
             after = self._lyapunov(td, new_action, frozen_critic)
         delta = after - value.detach() + self.spec.alpha * cost
         loss_actor = self.lambda_.detach() * delta.mean() + self.beta.detach() * log_prob.mean()
+        task = {}
+        if self.qvalue_network is not None:  # the task: a Q critic on task_cost
+            task_cost = self._cost(next_td, self.tensor_keys.task_cost)
+            with torch.no_grad():
+                next_q = self._qvalue(next_td, next_action, self.target_qvalue_network_params)
+                q_target = task_cost + self.gamma * continues * next_q
+            q = self._qvalue(td, action, self.qvalue_network_params)
+            policy_q = self._qvalue(td, new_action, self.qvalue_network_params.detach())
+            loss_actor = loss_actor + policy_q.mean()
+            task = {"loss_qvalue": self._td_loss(q, q_target), "qvalue": q.detach().mean()}
 
         # duals
         loss_lambda = -self.log_lambda * delta.detach().mean()
@@ -291,6 +380,7 @@ class LyapunovActorCriticLoss(LossModule):
                 "violation_rate": (delta.detach() > 0).float().mean(),
                 "lyapunov_value": value.detach().mean(),
                 "negative_cost_fraction": (cost < 0).float().mean(),
+                **task,
             },
             batch_size=[],
         )

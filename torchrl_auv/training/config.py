@@ -52,6 +52,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "proposer.lr_schedule": LR_SCHEDULES,
         "selection.include_actor": (True, False),
         "optim.loss_function": ("l2", "smooth_l1"),
+        "lyapunov.cost": ("task", "stability"),
     }
 
 

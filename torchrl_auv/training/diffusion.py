@@ -33,14 +33,17 @@ from torchrl_auv.training.factories import (
     ACTION,
     AGENTS,
     OBSERVATION,
+    Q_VALUE,
     ObsActionMLP,
     _dims,
     make_env,
+    make_q_critic,
 )
 from torchrl_auv.training.first_stage import first_stage_from_config
 
 __all__ = [
     "ACTOR_ACTION",
+    "LYAPUNOV_COSTS",
     "LYAPUNOV_RAW",
     "RankedCandidate",
     "acting_actor",
@@ -191,13 +194,20 @@ def make_lyapunov_critic(env, hidden: Sequence[int] = (256, 256)) -> TensorDictM
 
 
 def lac_optimisers(loss: LyapunovActorCriticLoss, optim) -> dict[str, torch.optim.Optimizer]:
-    """Adam for the actor, the Lyapunov critic and the dual variables (lambda, beta)."""
+    """Adam for the actor, the critics (Lyapunov, and the task Q critic when the loss has one)
+    and the dual variables (lambda, beta)."""
+    critics = list(loss.lyapunov_network_params.parameters())
+    if loss.qvalue_network is not None:
+        critics += list(loss.qvalue_network_params.parameters())
     return {
         "actor_optim": torch.optim.Adam(loss.actor_network_params.parameters(), lr=optim.actor_lr),
-        "critic_optim": torch.optim.Adam(loss.lyapunov_network_params.parameters(),
-                                         lr=optim.critic_lr),
+        "critic_optim": torch.optim.Adam(critics, lr=optim.critic_lr),
         "dual_optim": torch.optim.Adam([loss.log_lambda, loss.log_beta], lr=optim.dual_lr),
     }  # fmt: skip
+
+
+#: ``lyapunov.cost`` choices: which cost the Lyapunov critic learns (the loss's docstring)
+LYAPUNOV_COSTS = ("task", "stability")
 
 
 def make_lac_loss(
@@ -210,16 +220,29 @@ def make_lac_loss(
     stability_weight: float = 0.1,
     lambda_max: float = 1.0,
     loss_function: str = "l2",
+    cost: str = "task",
+    hidden: Sequence[int] = (256, 256),
 ) -> LyapunovActorCriticLoss:
-    """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout (trained
-    on ``("agents", "cost")``; ``loss_function``: the critic's TD loss, ``l2`` or
-    ``smooth_l1``)."""
+    """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
+    (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
+
+    ``cost`` (:data:`LYAPUNOV_COSTS`): ``"task"`` (the paper): the Lyapunov critic learns
+    ``("agents", "cost")`` and the actor minimises it through L alone; ``"stability"``: the
+    Lyapunov critic learns ``("agents", "stability_cost")`` (0 in service) and carries the
+    constraint, while a task Q critic (:func:`~torchrl_auv.training.make_q_critic` with
+    ``hidden``) learns ``("agents", "cost")`` and gives the actor the task."""
+    if cost not in LYAPUNOV_COSTS:
+        raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
+    qvalue = make_q_critic(env, hidden) if cost == "stability" else None
     loss = LyapunovActorCriticLoss(
         actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
         target_entropy=-float(_dims(env)[1]), loss_function=loss_function,
+        qvalue_network=qvalue,
     )  # fmt: skip
-    loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=(AGENTS, "cost"),
-                  done=(AGENTS, "done"), terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW,
+    lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
+    loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=lyapunov_cost,
+                  task_cost=(AGENTS, "cost"), done=(AGENTS, "done"),
+                  terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW, qvalue=Q_VALUE,
                   observation=OBSERVATION)  # fmt: skip
     loss.make_value_estimator(gamma=gamma)
     return loss

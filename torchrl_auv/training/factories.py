@@ -57,6 +57,7 @@ REPLAY_KEYS = (
     ("next", AGENTS, "observation"),
     ("next", AGENTS, "reward"),
     ("next", AGENTS, "cost"),
+    ("next", AGENTS, "stability_cost"),
     ("next", AGENTS, "done"),
     ("next", AGENTS, "terminated"),
 )

@@ -41,6 +41,7 @@ __all__ = [
     "RunTracker",
     "batch_metrics",
     "buffer_from_config",
+    "close_logger",
     "collector_from_config",
     "env_from_config",
     "finish_run",
@@ -343,6 +344,14 @@ class RunTracker:
                 "training frames/s": self.rate(), "peak RSS (MB)": peak_rss_mb()}  # fmt: skip
 
 
+def close_logger(logger) -> None:
+    """Finish a wandb run (its files are complete after this); TorchRL's CSV and TensorBoard
+    loggers (no ``finish``) and ``None`` are left as they are."""
+    finish = getattr(getattr(logger, "experiment", None), "finish", None)
+    if finish is not None:
+        finish()
+
+
 def finish_run(
     cfg: DictConfig,
     run_dir: Path,
@@ -367,7 +376,6 @@ def finish_run(
         log_metrics(logger, {f"eval/{row['sea_state']}/{row['policy']}/{key}": row[key]
                              for key in SUMMARY_COLUMNS}, step)  # fmt: skip
     summary = write_summary(run_dir, title=title, rows=rows, facts=facts)
-    if logger is not None and hasattr(logger, "experiment"):
-        logger.experiment.finish()
+    close_logger(logger)
     log.info("summary: %s", summary)
     return summary
