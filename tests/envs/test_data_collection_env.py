@@ -222,7 +222,9 @@ def test_the_stability_cost_is_zero_in_service_and_sums_the_terms_that_vanish_th
     terms = nxt["cost_terms"]
     by_hand = terms["distance"] + terms["regress"] + terms["collision"] + terms["violation"]
     torch.testing.assert_close(stability, by_hand)
-    serving = nxt["task", "auvs", "in_service"] & (terms["violation"] == 0) & (terms["collision"] == 0)
+    serving = (
+        nxt["task", "auvs", "in_service"] & (terms["violation"] == 0) & (terms["collision"] == 0)
+    )
     assert serving.any() and (stability[serving] == 0).all() and (cost[serving] > 0).all()
     assert (stability[~serving] > 0).any()
     assert (stability <= env.cost_weights.max_stability_cost() + 1e-5).all()

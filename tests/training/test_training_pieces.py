@@ -239,7 +239,7 @@ def test_the_lyapunov_cost_choice_sets_what_each_critic_learns():
     before = [p.detach().clone() for p in stable.target_qvalue_network_params.values(True, True)]
     training.gradient_step(stable, optimisers, updater, data)
     after = stable.target_qvalue_network_params.values(True, True)
-    assert any((a != b).any() for a, b in zip(after, before))
+    assert any((a != b).any() for a, b in zip(after, before, strict=True))
     with pytest.raises(ValueError, match="cost must be one of"):
         diffusion.make_lac_loss(actor, lyapunov, env, cost="energy")
 
