@@ -9,7 +9,13 @@ from pathlib import Path
 
 __all__ = ["plot_learning_curve", "read_curve"]
 
-DEFAULT_KEYS = ("train/cost_mean", "train/episode_ssn", "train/episode_sdr", "train/lambda")
+DEFAULT_KEYS = (
+    "train/cost_mean",
+    "train/episode_ssn",
+    "train/episode_sdr",
+    "train/lambda",
+    "train/violation_rate",
+)
 
 
 def read_curve(path: str | Path) -> dict[str, tuple[list[int], list[float]]]:
