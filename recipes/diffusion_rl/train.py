@@ -84,6 +84,7 @@ def main(cfg: DictConfig) -> None:
         pick=cfg.proposer.alone_pick,
         alone_candidates=cfg.proposer.alone_candidates,
         alone_replan_every=cfg.proposer.alone_replan_every,
+        ranks=cfg.eval.ranks,
     )
     policies.update(training.reference_policies())
     facts["gradient updates"] = progress["updates"]

@@ -148,6 +148,8 @@ def test_without_the_actor_the_selection_set_is_the_k_candidates():
     assert diffusion.ACTOR_ACTION not in td.keys(True, True)
     rows = diffusion.evaluation_policies("diffusion_lac", policy, actor, proposer)
     assert {"OA", "CA1", "CA2", "RL", "proposer alone"} <= set(rows) and "CA3" not in rows
+    rows = diffusion.evaluation_policies("diffusion_lac", policy, actor, proposer, ranks=False)
+    assert set(rows) == {"diffusion_lac", "RL", "proposer alone"}
 
 
 def test_batch_metrics_log_the_share_of_each_selection_slot():

@@ -51,6 +51,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "proposer.alone_pick": CANDIDATE_PICKS,
         "proposer.lr_schedule": LR_SCHEDULES,
         "selection.include_actor": (True, False),
+        "eval.ranks": (True, False),
         "optim.loss_function": ("l2", "smooth_l1"),
         "lyapunov.cost": ("task", "stability"),
     }

@@ -88,19 +88,21 @@ def evaluation_policies(
     pick: str = "medoid",
     alone_candidates: int | None = None,
     alone_replan_every: int = 1,
+    ranks: bool = True,
 ) -> dict:
     """The diffusion recipes' evaluation rows: the framework (``name``), each rank of its
     selector's ranking executed on its own (``OA`` = rank 0, ``CA1`` ... over the K candidates
-    and, when the selector scores it, the actor's own action), the actor alone (``RL``, with
-    an ``actor``) and the proposer alone
-    (:func:`proposer_alone` with ``pick``, ``alone_candidates`` and ``alone_replan_every``)."""
+    and, when the selector scores it, the actor's own action; ``ranks=False``: none of these,
+    which cost one evaluation each), the actor alone (``RL``, with an ``actor``) and the
+    proposer alone (:func:`proposer_alone` with ``pick``, ``alone_candidates`` and
+    ``alone_replan_every``)."""
     alone = proposer_alone(proposer, pick, num_candidates=alone_candidates,
                            replan_every=alone_replan_every)  # fmt: skip
     rows = {name: lambda _: policy, "proposer alone": lambda _: alone}
     if actor is not None:
         rows["RL"] = lambda _: actor
-    ranks = proposer.num_candidates + bool(policy[-1].include_actor_action)
-    for rank in range(ranks):
+    slots = proposer.num_candidates + bool(policy[-1].include_actor_action) if ranks else 0
+    for rank in range(slots):
         rows["OA" if rank == 0 else f"CA{rank}"] = lambda _, r=rank: RankedCandidate(policy, r)
     return rows
 
