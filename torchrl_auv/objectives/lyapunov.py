@@ -336,13 +336,13 @@ class LyapunovActorCriticLoss(LossModule):
         frozen_critic = critic_params.detach()
 
         # critic: L(s, a) towards c + gamma (1 - terminated) L_target(s', a')
+        continues = 1 - terminated.to(cost.dtype)
         with torch.no_grad():
             next_action, _ = self._sample(next_td, actor_params.detach())
             next_value = self._lyapunov(next_td, next_action, self.target_lyapunov_network_params)
-            target = cost + self.gamma * (1 - terminated.to(cost.dtype)) * next_value
+            target = cost + self.gamma * continues * next_value
         value = self._lyapunov(td, action, critic_params)
         loss_lyapunov = self._td_loss(value, target)
-        continues = 1 - terminated.to(cost.dtype)
 
         # actor: lambda * DeltaL + beta * log pi, gradient through the sampled actions only
         new_action, log_prob = self._sample(td, actor_params)
