@@ -121,6 +121,29 @@ def test_checkpoint_round_trip(tmp_path):
         proposer.save(path)  # never overwrites
 
 
+CALLED = []
+
+
+def _record_call():
+    CALLED.append(True)
+    return {}
+
+
+class _RunsCodeWhenUnpickled:
+    def __reduce__(self):
+        return (_record_call, ())
+
+
+def test_load_refuses_a_file_that_would_run_code(tmp_path):
+    # a proposer file is loaded with weights_only=True: tensors and plain containers only
+    proposer = DiffusionProposer(4, 2, num_inference_steps=2)
+    data = {"config": proposer.config(), "payload": _RunsCodeWhenUnpickled()}
+    torch.save(data, tmp_path / "proposer.pt")
+    with pytest.raises(Exception, match="Weights only load failed"):
+        DiffusionProposer.load(tmp_path / "proposer.pt")
+    assert not CALLED
+
+
 def test_a_pickled_proposer_leaves_its_compiled_steps_behind():
     # worker processes and Ray actors receive the policy pickled; compiled functions are not
     # picklable, and each worker compiles its own

@@ -435,7 +435,7 @@ class DiffusionProposer(TensorDictModuleBase):
         (identity for checkpoints that hold none), and the EMA weights with their decay and
         the ``use_ema`` switch (older checkpoints that hold no decay resume at the default
         0.995, with a warning)."""
-        data = torch.load(Path(path), weights_only=False)
+        data = torch.load(Path(path), weights_only=True)  # plain tensors and containers only
         config = dict(data["config"])
         for key in ("state_key", "history_key", "candidates_key", "first_actions_key",
                     "stages_key", "action_key"):  # fmt: skip
