@@ -62,6 +62,7 @@ from torchrl_auv.training.run import (
     sac_optimisers,
     start_run,
 )
+from torchrl_auv.training.seeding import configure_threads, seed_everything
 from torchrl_auv.training.summary import write_eval, write_summary
 
 __all__ = [
@@ -84,6 +85,7 @@ __all__ = [
     "check_ray_backend",
     "close_logger",
     "collector_from_config",
+    "configure_threads",
     "env_from_config",
     "episode_stats",
     "evaluate",
@@ -108,6 +110,7 @@ __all__ = [
     "reference_policies",
     "resume_latest",
     "sac_optimisers",
+    "seed_everything",
     "select_for_replay",
     "start_run",
     "values_key",

@@ -34,6 +34,7 @@ from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.diffusion import make_history_env
 from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.factories import make_env, make_logger, make_replay_buffer
+from torchrl_auv.training.seeding import configure_threads, seed_everything
 from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summary
 
 __all__ = [
@@ -66,8 +67,8 @@ def start_run(cfg: DictConfig) -> Path:
     checkpoints is refused without ``resume`` (its checkpoints would be overwritten), and a
     ``resume`` folder without checkpoints is refused too."""
     check_config(resolve_config(cfg))
-    torch.set_num_threads(cfg.threads)
-    torch.manual_seed(cfg.seed)
+    configure_threads(int(cfg.threads))
+    seed_everything(int(cfg.seed))
     run_dir = Path(cfg.resume or cfg.run_dir)
     checkpoints = run_dir / "checkpoints"
     if not cfg.resume and checkpoints.is_dir() and any(checkpoints.iterdir()):
