@@ -79,3 +79,17 @@ def test_a_resumed_run_does_not_evaluate_its_start_again_and_off_means_off(tmp_p
     training.RunTracker(_cfg(None), tmp_path / "off", None, {"frames": 0}, None, None,
                         eval_policy=off).step(_batch(), {})  # fmt: skip
     assert off.calls == 0 and not (tmp_path / "off" / "eval_curve.csv").exists()
+
+
+def test_the_bar_shows_the_last_ended_episodes_not_nan(tmp_path):
+    tracker = training.RunTracker(_cfg(None), tmp_path, None, {"frames": 0}, None, None)
+    tracker.step(_batch(), {})
+    assert set(tracker.bar.postfix.replace(" ", "").split(",")) == {"cost=1.000"}  # none ended
+    ended = _batch()
+    ended["next", "done"][-1] = True
+    ended["next", "metrics"] = TensorDict({name: torch.full((4,), 3.0) for name in
+                                           ("sdr", "ssn", "collisions", "violations")}, [4])  # fmt: skip
+    tracker.step(ended, {})
+    tracker.step(_batch(), {})  # no episode ended in this batch: the bar keeps the last ones
+    assert "sdr=3.0" in tracker.bar.postfix and "ssn=3.0" in tracker.bar.postfix
+    assert "nan" not in tracker.bar.postfix

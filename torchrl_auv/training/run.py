@@ -224,12 +224,20 @@ def batch_metrics(data: TensorDictBase) -> dict[str, float]:
 
 def progress_postfix(metrics: Mapping[str, float], spec=None) -> dict[str, str]:
     """What a recipe's tqdm bar shows after each batch: the batch's cost per AUV-decision
-    (reward = -cost), the last ended episodes' SDR (Mbit) and SSN, and with a Lyapunov loss
-    lambda and the form in force."""
-    nan = float("nan")
-    out = {"cost": f"{metrics['train/cost_mean']:.3f}",
-           "sdr": f"{metrics.get('train/episode_sdr', nan):.1f}",
-           "ssn": f"{metrics.get('train/episode_ssn', nan):.1f}"}  # fmt: skip
+    (reward = -cost), the SDR (Mbit) and SSN of the episodes that ended last (left out until
+    one has ended), and with a Lyapunov loss lambda and the form in force.
+
+    Examples:
+        >>> progress_postfix({"train/cost_mean": 1.25})
+        {'cost': '1.250'}
+        >>> progress_postfix({"train/cost_mean": 1.0, "train/episode_sdr": 7.5,
+        ...                   "train/episode_ssn": 4.0})
+        {'cost': '1.000', 'sdr': '7.5', 'ssn': '4.0'}
+    """
+    out = {"cost": f"{metrics['train/cost_mean']:.3f}"}
+    for name in ("sdr", "ssn"):
+        if f"train/episode_{name}" in metrics:
+            out[name] = f"{metrics[f'train/episode_{name}']:.1f}"
     if "train/lambda" in metrics:
         out["lambda"] = f"{metrics['train/lambda']:.2f}"
     if spec is not None:
@@ -289,6 +297,7 @@ class RunTracker:
         self.start = time.perf_counter()
         self.frames_at_start = self.last_saved = progress["frames"]
         self.eval_policy, self.history, self.eval_seconds = eval_policy, history, 0.0
+        self.last_episode: dict[str, float] = {}  # the bar's SDR/SSN: the last ended episodes
         self.every = OmegaConf.select(cfg, "eval.every_frames", default=None) or 0
         if eval_policy is not None and self.every:
             self.evaluated_block = progress["frames"] // self.every
@@ -324,7 +333,9 @@ class RunTracker:
         frames = self.progress["frames"]
         log_metrics(self.logger, metrics, frames, curve=self.curve)
         self.bar.update(data.numel())
-        self.bar.set_postfix(progress_postfix(metrics, spec))
+        self.last_episode.update({k: v for k, v in metrics.items()
+                                  if k.startswith("train/episode_")})  # fmt: skip
+        self.bar.set_postfix(progress_postfix({**metrics, **self.last_episode}, spec))
         if self.eval_policy is not None and self.every:
             block = frames // self.every
             if block > self.evaluated_block:
