@@ -87,8 +87,8 @@ def test_the_bar_shows_the_last_ended_episodes_not_nan(tmp_path):
     assert set(tracker.bar.postfix.replace(" ", "").split(",")) == {"cost=1.000"}  # none ended
     ended = _batch()
     ended["next", "done"][-1] = True
-    ended["next", "metrics"] = TensorDict({name: torch.full((4,), 3.0) for name in
-                                           ("sdr", "ssn", "collisions", "violations")}, [4])  # fmt: skip
+    names = ("sdr", "ssn", "collisions", "violations")
+    ended["next", "metrics"] = TensorDict({name: torch.full((4,), 3.0) for name in names}, [4])
     tracker.step(ended, {})
     tracker.step(_batch(), {})  # no episode ended in this batch: the bar keeps the last ones
     assert "sdr=3.0" in tracker.bar.postfix and "ssn=3.0" in tracker.bar.postfix
