@@ -80,6 +80,21 @@ def test_proposer_path_is_checked_against_the_config(tmp_path):
         first_stage_from_config(_cfg(tmp_path, path=str(tmp_path / "none.pt")))
 
 
+def test_a_proposer_path_of_another_shape_is_refused_naming_the_key(tmp_path):
+    # a bare file (no values.json beside it) is checked against the config's structure
+    built = first_stage_from_config(_cfg(tmp_path / "cache"))
+    bare = tmp_path / "bare" / "proposer.pt"
+    bare.parent.mkdir()
+    bare.write_bytes((built.folder / "proposer.pt").read_bytes())
+    ok = first_stage_from_config(_cfg(tmp_path / "x", path=str(bare), sampler="ddpm",
+                                      num_inference_steps=3))  # fmt: skip
+    assert (ok.proposer.sampler, ok.proposer.num_inference_steps) == ("ddpm", 3)
+    with pytest.raises(ValueError, match=r"proposer\.horizon is 6"):
+        first_stage_from_config(_cfg(tmp_path / "x", path=str(bare), horizon=6))
+    with pytest.raises(ValueError, match=r"proposer\.history=3"):
+        first_stage_from_config(_cfg(tmp_path / "x", path=str(bare), history=3))
+
+
 def test_values_name_sea_controller_rate_and_seed():
     cfg = {"seed": 3, "env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
            "proposer": {"demo_sea_state": "es", "lr": 5e-4}}  # fmt: skip

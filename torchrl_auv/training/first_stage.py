@@ -57,6 +57,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 
+from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES
 from torchrl_auv.envs.demonstrations import collect_demonstration_batches, save_demonstrations
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import pretrain_proposer
@@ -318,6 +319,27 @@ class FirstStage:
     facts: dict = field(default_factory=dict)
 
 
+def _check_structure(proposer: DiffusionProposer, p: Mapping, source: Path) -> None:
+    """Refuse a loaded proposer whose shape does not fit the config: its plan ``horizon``, and
+    its conditioning size (the data-collection observation plus ``history`` observation-action
+    pairs), naming the key."""
+    horizon = p.get("horizon", FIRST_STAGE_DEFAULTS["horizon"])
+    if proposer.horizon != horizon:
+        raise ValueError(
+            f"proposer.horizon is {horizon} but {source} plans {proposer.horizon} decisions "
+            "ahead: set proposer.horizon to match, or use another proposer"
+        )
+    history = p.get("history", FIRST_STAGE_DEFAULTS["history"])
+    obs, act = len(AGENT_OBSERVATION_FEATURES), proposer.action_dim
+    expected = obs + history * (obs + act + 1)
+    if proposer.state_dim != expected:
+        raise ValueError(
+            f"{source} conditions on {proposer.state_dim} features, but the data-collection "
+            f"observation ({obs}) with proposer.history={history} pairs gives {expected}: "
+            "set proposer.history to the proposer's, or use a proposer made for this env"
+        )
+
+
 def _apply_acting(proposer: DiffusionProposer, p: Mapping) -> DiffusionProposer:
     acting = {**ACTING_DEFAULTS, **{k: p[k] for k in ACTING_DEFAULTS if k in p}}
     proposer.configure_sampling(num_candidates=acting["num_candidates"],
@@ -334,7 +356,8 @@ def first_stage_from_config(
     ``values.json`` its values must match the config's, else it is refused naming the keys),
     else the cached artefact of :func:`first_stage_values` under ``proposer.cache_dir``, built
     if missing (``proposer.demo_workers`` collection processes). The acting keys are applied
-    to the loaded proposer."""
+    to the loaded proposer; one whose horizon or conditioning size does not fit the config is
+    refused, naming the key."""
     plain = _plain(cfg)
     p = plain.get("proposer", {})
     values = first_stage_values(plain)
@@ -348,7 +371,9 @@ def first_stage_from_config(
         else:
             log.warning("proposer.path %s has no %s beside it: its first-stage values cannot "
                         "be checked against this config", path, VALUES_FILE)  # fmt: skip
-        proposer = _apply_acting(DiffusionProposer.load(path), p)
+        proposer = DiffusionProposer.load(path)
+        _check_structure(proposer, p, path)
+        proposer = _apply_acting(proposer, p)
         return FirstStage(proposer, None, False, {"first stage": f"{path} (proposer.path)"})
     cache = ArtefactCache(p.get("cache_dir") or "runs/first_stage")
     name = (
