@@ -179,11 +179,24 @@ def test_evaluation_rows_repeat_on_the_same_seed_whatever_the_global_rng():
     assert other[0]["cost_mean"] != rows[0][0]["cost_mean"]
 
 
+def test_evaluation_shows_its_progress_per_decision(capsys):
+    def make(sea, seed):
+        return training.make_env(sea, seed=seed, num_envs=1, max_steps=6)
+
+    training.evaluate(make, {"random": lambda env: None, "expert": training.reference_policies()[
+        "expert"]}, ["ideal"], seed=5, steps=6, progress=True)  # fmt: skip
+    err = capsys.readouterr().err
+    assert "12/12" in err and "ideal expert" in err
+    training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=5, steps=6)
+    assert "evaluation" not in capsys.readouterr().err  # off by default
+
+
 def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
     """``env.compile_physics`` and ``proposer.compile`` (recipe keys) switch the compiled
     paths on; without the keys both stay eager (nothing compiles here: no step is taken)."""
     from omegaconf import OmegaConf
 
+    from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES
     from torchrl_auv.modules import DiffusionProposer
 
     env_cfg = {"sea_state": "ideal", "num_envs": 1, "controller": "pid", "rate_model": "shannon",
@@ -192,9 +205,15 @@ def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
     assert training.env_from_config(cfg).vehicles.compile is False
     cfg.env.compile_physics = True
     assert training.env_from_config(cfg).vehicles.compile is True
+    cfg.eval = {"num_envs": 1, "steps": 5}
+    held_out = training.held_out_env(cfg, 0, 1, 5)
+    assert held_out("ideal", 100000).vehicles.compile is True  # evaluation compiles too
+    cfg.env.compile_physics = False
+    assert training.held_out_env(cfg, 0, 1, 5)("ideal", 100000).vehicles.compile is False
 
     path = tmp_path / "proposer.pt"
-    DiffusionProposer(4, 3, num_candidates=2, horizon=2, num_inference_steps=2).save(path)
+    obs = len(AGENT_OBSERVATION_FEATURES)  # history 0: the observation alone
+    DiffusionProposer(obs, 3, num_candidates=2, horizon=2, num_inference_steps=2).save(path)
     proposer_cfg = {"path": str(path), "demo_episodes": 1, "demo_steps": 1, "pretrain_steps": 1,
                     "batch_size": 1, "lr": 1e-3, "num_candidates": 2, "horizon": 2, "history": 0,
                     "num_inference_steps": 2, "sampler": "ddim", "hidden": 8,

@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 
 import torch
+import tqdm
 from tensordict import TensorDictBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
@@ -73,11 +74,13 @@ def episode_stats(
     steps: int,
     *,
     gammas: Sequence[float] = (0.97, 0.99),
+    callback: Callable | None = None,
 ) -> dict[str, float]:
     """Roll ``policy`` out for ``steps`` decisions (one episode per scene, or its first
     ``steps`` decisions) and summarise it (module docstring). Values are means over scenes;
-    ``kf_error_p95`` is the 95th percentile over every AUV-decision."""
-    rollout = env.rollout(steps, policy, break_when_any_done=False)
+    ``kf_error_p95`` is the 95th percentile over every AUV-decision. ``callback(env, td)`` is
+    called after every decision (``EnvBase.rollout``'s), e.g. to advance a progress bar."""
+    rollout = env.rollout(steps, policy, break_when_any_done=False, callback=callback)
     first, mask = _first_episode(rollout)
     scenes = torch.arange(rollout.batch_size[0])
     at_end = rollout["next"][scenes, first]
@@ -124,6 +127,7 @@ def evaluate(
     *,
     seed: int,
     steps: int,
+    progress: bool = False,
 ) -> list[dict]:
     """Every policy in every sea state on the same held-out scenes, deterministic actions.
 
@@ -137,19 +141,25 @@ def evaluate(
             through torch's global generator (forked, restored after), the random actions'
             and the proposer's samples.
         steps: decisions per episode.
+        progress: show a progress bar (decisions of every row, the row being evaluated).
 
     Returns:
         one row per (sea state, policy): ``{"sea_state", "policy", **episode_stats}``.
     """
     rows = []
-    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
+    bar = tqdm.tqdm(total=len(sea_states) * len(policies) * steps, unit="decision",
+                    desc="evaluation", disable=not progress)  # fmt: skip
+    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad(), bar:
         for sea_state in sea_states:
             for name, build in policies.items():
+                bar.set_postfix_str(f"{sea_state} {name}")
                 env = make_env(sea_state, seed)
                 with torch.random.fork_rng():  # random actions and proposals: seeded too
                     torch.manual_seed(seed)
-                    stats = episode_stats(env, build(env), steps)
+                    stats = episode_stats(env, build(env), steps,
+                                          callback=lambda *_: bar.update())  # fmt: skip
                 rows.append({"sea_state": sea_state, "policy": name, **stats})
+                bar.update(len(rows) * steps - bar.n)  # rollout's callback skips the last step
     return rows
 
 

@@ -151,12 +151,15 @@ def _scene_env(sea_state: str, history: int, **kwargs):
 
 def held_out_env(cfg: DictConfig, history: int, num_envs: int, steps: int) -> Callable:
     """``(sea_state, seed) -> env`` for :func:`evaluate`: ``num_envs`` scenes of ``steps``
-    decisions with the run's controller and rate model (and a ``history``-long state-action
-    history when > 0)."""
+    decisions with the run's controller, rate model and ``env.compile_physics`` (the same
+    numbers as eager, about 3x faster once compiled), and a ``history``-long state-action
+    history when > 0."""
+    compiled = bool(cfg.env.get("compile_physics", False))
 
     def make(sea: str, seed: int):
         return _scene_env(sea, history, seed=seed, num_envs=num_envs, max_steps=steps,
-                          controller=cfg.env.controller, rate_model=cfg.env.rate_model)  # fmt: skip
+                          controller=cfg.env.controller, rate_model=cfg.env.rate_model,
+                          compile_physics=compiled)  # fmt: skip
 
     return make
 
@@ -381,8 +384,10 @@ def finish_run(
     logger. Returns the summary's path."""
 
     eval_env = held_out_env(cfg, history, cfg.eval.num_envs, cfg.eval.steps)
+    began = time.perf_counter()
     rows = evaluate(eval_env, policies, cfg.eval.sea_states, seed=cfg.eval.seed,
-                    steps=cfg.eval.steps)  # fmt: skip
+                    steps=cfg.eval.steps, progress=True)  # fmt: skip
+    facts = {**facts, "evaluation wall time (s)": time.perf_counter() - began}
     write_eval(rows, run_dir)
     for row in rows:
         log_metrics(logger, {f"eval/{row['sea_state']}/{row['policy']}/{key}": row[key]
