@@ -72,8 +72,7 @@ def main(cfg: DictConfig) -> None:
     policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov",
                                              actor=actor if cfg.selection.include_actor else None,
                                              critic_out_key=diffusion.LYAPUNOV_RAW,
-                                             spec=loss.spec)  # fmt: skip
-    selector = policy[-1]
+                                             loss=loss)  # the loss owns the spec  # fmt: skip
     optimisers = diffusion.lac_optimisers(loss, cfg.optim)
     buffer = training.buffer_from_config(cfg, run_dir)
 
@@ -85,7 +84,6 @@ def main(cfg: DictConfig) -> None:
     modules = {"loss": loss, "spec": training.SpecState(loss), "advisor": trigger, **optimisers}
     checkpoint, rotation, remaining = training.prepare_resume(cfg, run_dir, modules, progress,
                                                               buffer)  # fmt: skip
-    selector.spec = loss.spec
 
     collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
                                                total_frames=max(remaining, 1))  # fmt: skip
@@ -99,7 +97,8 @@ def main(cfg: DictConfig) -> None:
             out = training.gradient_step(loss, optimisers, target_updater,
                                          buffer.sample().to(cfg.device))  # fmt: skip
             progress["updates"] += 1
-        # the advisor: feedback over the last `window` batches; a new spec reaches the selector
+        # the advisor: feedback over the last `window` batches; its new spec reaches the
+        # selector through the loss (its owner)
         window = [*window, diffusion.feedback_batch(data)][-cfg.advisor.window :]
         outputs = [*outputs, out.detach()][-cfg.advisor.window :]
         feedback = advisors.feedback_from_training(
@@ -107,7 +106,6 @@ def main(cfg: DictConfig) -> None:
             velocity_indices=cfg.advisor.velocity_indices,
         )  # fmt: skip
         trigger.step(progress["frames"], feedback, loss)
-        selector.spec = loss.spec
         collector.update_policy_weights_()  # workers: new weights and Lyapunov form
         metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS + TASK_CRITIC_KEYS
                    if k in out.keys()}  # fmt: skip

@@ -87,6 +87,34 @@ def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
     assert fresh.reason(400, None) is None and fresh.state_dict() == {"last_frame": 300}
 
 
+def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
+    env = diffusion.make_history_env("ideal", history=2, seed=0, num_envs=1, max_steps=5)
+    from torchrl_auv.modules import DiffusionProposer
+
+    proposer = DiffusionProposer.for_env(env, num_candidates=2, horizon=2, num_inference_steps=2)
+    critic = diffusion.make_lyapunov_critic(env, (8,))
+    loss = diffusion.make_lac_loss(training.make_actor(env, (8,)), critic, env)
+    policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov", loss=loss,
+                                             critic_out_key=diffusion.LYAPUNOV_RAW)  # fmt: skip
+    selector = policy[-1]
+    assert selector.spec == loss.spec
+    loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))  # an advisor's step
+    assert (selector.spec.form, selector.spec.alpha) == ("squared", 0.25)
+    assert selector.spec_code[0] != 0  # the buffer the workers receive with the weights
+    progress = {"frames": 0}
+    ckpt, rotation = training.make_checkpoint(tmp_path, modules={"spec": training.SpecState(loss)},
+                                              progress=progress)  # fmt: skip
+    rotation.save(ckpt, step=0)
+    loss.set_lyapunov_spec(LyapunovSpec(form="log", alpha=0.5))
+    training.resume_latest(tmp_path, ckpt, progress)
+    assert (selector.spec.form, selector.spec.alpha) == ("squared", 0.25)  # back with the loss
+    with pytest.raises(ValueError, match="spec must be a LyapunovSpec"):
+        loss.spec = "squared"
+    with pytest.raises(ValueError, match="needs mode='lyapunov'"):
+        diffusion.make_selection_policy(proposer, critic, mode="q", loss=loss,
+                                        critic_out_key=diffusion.LYAPUNOV_RAW)  # fmt: skip
+
+
 def test_feedback_batch_puts_time_second_last_per_auv():
     obs = torch.arange(2 * 5 * 3 * 37, dtype=torch.float32).reshape(2, 5, 3, 37)
     data = TensorDict({("agents", "observation"): obs,
@@ -106,7 +134,7 @@ def test_ranked_candidates_and_the_live_lyapunov_critic():
     loss = diffusion.make_lac_loss(actor, critic, env)
     policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov", actor=actor,
                                              critic_out_key=diffusion.LYAPUNOV_RAW,
-                                             spec=loss.spec)  # fmt: skip
+                                             loss=loss)  # fmt: skip
     td = policy(env.reset())
     scores, ranking = td["agents", "selector", "scores"], td["agents", "selector", "ranking"]
     assert scores.shape[-1] == 4  # K = 3 candidates and the actor's own action
@@ -138,10 +166,10 @@ def test_without_the_actor_the_selection_set_is_the_k_candidates():
     proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
     actor = training.make_actor(env, (16,))
     critic = diffusion.make_lyapunov_critic(env, (16,))
-    spec = diffusion.make_lac_loss(actor, critic, env).spec
+    loss = diffusion.make_lac_loss(actor, critic, env)
     policy = diffusion.make_selection_policy(
         proposer, critic, mode="lyapunov", actor=None, critic_out_key=diffusion.LYAPUNOV_RAW,
-        spec=spec,
+        loss=loss,
     )  # fmt: skip
     td = policy(env.reset())
     assert td["agents", "selector", "scores"].shape[-1] == 3

@@ -205,6 +205,7 @@ class LyapunovActorCriticLoss(LossModule):
             self.convert_to_functional(qvalue_network, "qvalue_network", create_target_params=True)
         else:
             self.qvalue_network = None
+        self._spec_readers: list = []  # modules whose ``spec`` follows this loss's (share_spec)
         self.spec = spec if spec is not None else LyapunovSpec(form=form, alpha=stability_weight)
         self.mode, self.loss_function = mode, loss_function
         self.lambda_max = float(lambda_max)
@@ -215,12 +216,48 @@ class LyapunovActorCriticLoss(LossModule):
         self.gamma = 0.99
 
     # -- configuration ---------------------------------------------------------------------
+    @property
+    def spec(self) -> LyapunovSpec:
+        """The Lyapunov form, prior and stability weight in force. This loss owns it: assigning
+        it (or :meth:`set_lyapunov_spec`) also sets it on every module given to
+        :meth:`share_spec`."""
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: LyapunovSpec) -> None:
+        if not isinstance(value, LyapunovSpec):
+            raise ValueError(f"spec must be a LyapunovSpec, got {type(value).__name__}")
+        self._spec = value
+        for reader in self._spec_readers:
+            reader.spec = value
+
     def set_lyapunov_spec(self, spec: LyapunovSpec) -> None:
         """Switch the form, prior and stability weight; parameters, dual variables and any
-        optimiser state are untouched (the critic's raw output is reinterpreted)."""
-        if not isinstance(spec, LyapunovSpec):
-            raise ValueError(f"spec must be a LyapunovSpec, got {type(spec).__name__}")
+        optimiser state are untouched (the critic's raw output is reinterpreted). Modules
+        sharing the spec (:meth:`share_spec`) switch with it."""
         self.spec = spec
+
+    def share_spec(self, reader):
+        """Make ``reader.spec`` (e.g. a :class:`~torchrl_auv.objectives.CandidateSelector`
+        ranking with this loss's critic) follow this loss's spec: set now and whenever the
+        spec changes (an advisor's step, a checkpoint's). Returns ``reader``.
+
+        Examples:
+            >>> from torchrl_auv.objectives import CandidateSelector
+            >>> from torchrl_auv.training import diffusion, make_actor, make_env
+            >>> env = make_env("ideal", seed=0, num_envs=1, max_steps=2)
+            >>> critic = diffusion.make_lyapunov_critic(env, (8,))
+            >>> loss = LyapunovActorCriticLoss(make_actor(env, (8,)), critic)
+            >>> selector = loss.share_spec(CandidateSelector(critic, mode="lyapunov"))
+            >>> loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))
+            >>> selector.spec.form, selector.spec.alpha
+            ('squared', 0.25)
+        """
+        if not hasattr(reader, "spec"):
+            raise ValueError(f"reader must have a spec attribute, got {type(reader).__name__}")
+        self._spec_readers.append(reader)
+        reader.spec = self._spec
+        return reader
 
     def make_value_estimator(self, value_type: ValueEstimators = None, **hyperparams):
         """Set the discount: ``make_value_estimator(ValueEstimators.TD0, gamma=0.995)``.

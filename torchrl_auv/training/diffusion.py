@@ -28,7 +28,7 @@ from torchrl.modules import ProbabilisticActor
 
 from torchrl_auv.envs import StateActionHistory
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone
-from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, LyapunovSpec
+from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss
 from torchrl_auv.training.factories import (
     ACTION,
     AGENTS,
@@ -152,17 +152,26 @@ def make_selection_policy(
     mode: str,
     critic_out_key,
     actor: ProbabilisticActor | None = None,
-    spec: LyapunovSpec | None = None,
+    loss: LyapunovActorCriticLoss | None = None,
 ) -> TensorDictSequential:
     """Proposer, then (with ``actor``) the actor's own action, then the selector: argmax Q
     (``mode="q"``) or argmin L (``"lyapunov"``) over the K candidates' first actions (and the
-    actor's); writes the executed ``("agents", "action")``."""
+    actor's); writes the executed ``("agents", "action")``. With ``loss`` (mode
+    ``"lyapunov"``) the selector reads the loss's Lyapunov spec, which the loss owns
+    (:meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.share_spec`): an advisor's or a
+    checkpoint's new spec reaches the selector, and with its weights the workers."""
+    if loss is not None and mode != "lyapunov":
+        raise ValueError(
+            f"loss (the owner of the Lyapunov spec) needs mode='lyapunov', got {mode!r}"
+        )
     selector = CandidateSelector(
-        critic, mode=mode, spec=spec, include_actor_action=actor is not None,
+        critic, mode=mode, include_actor_action=actor is not None,
         candidates_key=(AGENTS, "proposer", "candidates"), observation_key=OBSERVATION,
         action_key=ACTION, actor_action_key=ACTOR_ACTION, critic_action_key=ACTION,
         critic_out_key=critic_out_key,
     )  # fmt: skip
+    if loss is not None:
+        loss.share_spec(selector)
     parts = [proposer] + ([acting_actor(actor)] if actor is not None else []) + [selector]
     return TensorDictSequential(*parts)
 
