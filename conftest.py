@@ -116,3 +116,23 @@ def _doctest_torch(request: pytest.FixtureRequest):
 def global_rng_guard() -> GlobalRNGGuard:
     """``with global_rng_guard: ...`` fails the test if the block used a global RNG."""
     return GlobalRNGGuard()
+
+#: What torch.distributed says when Ray's workers did not join the weight-sync rendezvous within
+#: TorchRL's fixed 60 s (``torchrl.weight_update._ray._DIST_TIMEOUT``): seen on a loaded 2-core
+#: machine, where each worker spends most of a minute importing torch and building its env.
+RAY_SLOW_START = ("diststoreerror", "rendezvous", "socket timeout", "timed out after")
+
+
+def _skip_if_ray_started_too_slowly(text: str) -> None:
+    lines = [line for line in str(text).splitlines()
+             if any(sign in line.lower() for sign in RAY_SLOW_START)]  # fmt: skip
+    if lines:
+        pytest.skip("Ray's workers did not start within TorchRL's 60 s weight-sync timeout on "
+                    f"this (loaded) machine: {lines[-1].strip()[:200]}")  # fmt: skip
+
+
+@pytest.fixture
+def skip_if_ray_started_too_slowly():
+    """``check(text)``: skip the test, quoting the line, when ``text`` (an error message or a
+    process's stderr) says Ray's workers missed TorchRL's rendezvous; otherwise return."""
+    return _skip_if_ray_started_too_slowly

@@ -17,8 +17,13 @@ from torchrl.collectors import Collector
 from torchrl.data import LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.objectives import SoftUpdate
 
-from torchrl_auv.training import make_actor, make_env, select_for_replay
-from torchrl_auv.training.diffusion import make_lac_loss, make_lyapunov_critic
+from torchrl_auv.training import (
+    make_actor,
+    make_env,
+    make_lac_loss,
+    make_lyapunov_critic,
+    select_for_replay,
+)
 
 
 def main(argv=None) -> None:

@@ -19,42 +19,34 @@ import hydra
 from omegaconf import DictConfig
 
 from torchrl_auv import report, training
-from torchrl_auv.training import diffusion
 
 
 @hydra.main(config_path=".", config_name="paper", version_base="1.3")
 def main(cfg: DictConfig) -> None:
-    run_dir = training.start_run(cfg)  # checks every value before any work
+    run = training.Run(cfg)  # checks every value before any work; folder, logger
 
     # 1. first stage: a pretrained proposer (one cached artefact per first-stage values in
     #    proposer.cache_dir, shared by every recipe and sweep job; or proposer.path)
     stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
     proposer = stage.proposer.to(cfg.device)
-    policy = diffusion.proposer_alone(proposer, cfg.proposer.alone_pick,
-                                      num_candidates=cfg.proposer.alone_candidates,
-                                      replan_every=cfg.proposer.alone_replan_every)  # fmt: skip
+    policy = training.proposer_alone(proposer, cfg.proposer.alone_pick,
+                                     num_candidates=cfg.proposer.alone_candidates,
+                                     replan_every=cfg.proposer.alone_replan_every)  # fmt: skip
 
     # 2. run it (checkpoint: the frame count; the proposer itself is cached by the first stage)
-    env = training.env_from_config(cfg, history=cfg.proposer.history)
-    progress = {"frames": 0}
-    checkpoint, rotation, remaining = training.prepare_resume(cfg, run_dir, {}, progress)
-    logger = training.logger_from_config(cfg, run_dir)
-    collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
+    env = training.env_from_config(cfg)  # with the proposer's history (env.history)
+    remaining = run.restore({})
+    collector = training.collector_from_config(cfg, policy, env=env,
                                                total_frames=max(remaining, 1))  # fmt: skip
-    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation,
-                                  eval_policy=policy, history=cfg.proposer.history)  # fmt: skip
+    run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
-        progress["frames"] += data.numel()
-        tracker.step(data, {})
-    facts = {**stage.facts, **tracker.finish(collector)}
+        run.progress.frames += data.numel()
+        run.step(data, {})
+    facts = {**stage.facts, **run.finish(collector)}
 
     # 3. evaluation on held-out seeds
     policies = {"diffusion": lambda _: policy, **training.reference_policies()}
-    summary = training.finish_run(
-        cfg, run_dir, logger, policies, title="Diffusion proposer alone", facts=facts,
-        step=progress["frames"], history=cfg.proposer.history,
-    )  # fmt: skip
-    print(summary.read_text())
+    print(run.evaluate(policies, title="Diffusion proposer alone", facts=facts).read_text())
 
 
 if __name__ == "__main__":

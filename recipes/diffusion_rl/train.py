@@ -22,77 +22,48 @@ from omegaconf import DictConfig
 
 from torchrl_auv import report, training
 from torchrl_auv.objectives import QEnsembleCritic
-from torchrl_auv.training import diffusion
-
-LOGGED_LOSS_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy")
 
 
 @hydra.main(config_path=".", config_name="paper", version_base="1.3")
 def main(cfg: DictConfig) -> None:
-    run_dir = training.start_run(cfg)  # checks every value before any work
+    run = training.Run(cfg)  # checks every value before any work; folder, logger
 
     # 1. first stage: a pretrained proposer (one cached artefact per first-stage values in
     #    proposer.cache_dir, shared by every recipe and sweep job; or proposer.path)
     stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
     proposer = stage.proposer.to(cfg.device)
 
-    # 2. env, actor, twin Q critics, SAC loss, the proposer-selector policy
-    env = training.env_from_config(cfg, history=cfg.proposer.history)
+    # 2. env, actor, SAC learner, the proposer-selector policy ranking with the live twin Q
+    env = training.env_from_config(cfg)  # with the proposer's history (env.history)
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
-    critic = training.make_q_critic(env, cfg.network.hidden).to(cfg.device)
-    loss, target_updater = training.make_sac_loss(
-        actor, critic, env, gamma=cfg.optim.gamma, alpha_init=cfg.optim.alpha_init,
-        tau=cfg.optim.tau, loss_function=cfg.optim.loss_function,
-    )  # fmt: skip
-    q_critic = QEnsembleCritic.from_loss(loss)  # the live twin Q, reduced by min
-    policy = diffusion.make_selection_policy(proposer, q_critic, mode="q",
-                                             actor=actor if cfg.selection.include_actor else None,
-                                             critic_out_key=q_critic.out_keys[0])  # fmt: skip
-    optimisers = training.sac_optimisers(loss, cfg.optim)
-    buffer = training.buffer_from_config(cfg, run_dir)
-
-    # checkpoint (resume: the newest), logger
-    progress = {"frames": 0, "updates": 0}
-    checkpoint, rotation, remaining = training.prepare_resume(
-        cfg, run_dir, {"loss": loss, **optimisers}, progress, buffer
-    )
-    logger = training.logger_from_config(cfg, run_dir)
+    learner = training.sac_from_config(cfg, env, actor)
+    q_critic = QEnsembleCritic.from_loss(learner.loss)  # the min over the twin Q networks
+    policy = training.make_selection_policy(proposer, q_critic, mode="q",
+                                            actor=actor if cfg.selection.include_actor else None,
+                                            critic_out_key=q_critic.out_keys[0])  # fmt: skip
+    buffer = training.buffer_from_config(cfg, run.dir)
+    remaining = run.restore(learner.checkpoint_modules(), buffer)  # resume: the newest
 
     # 3. collect with the policy, train from the buffer
-    collector = training.collector_from_config(cfg, policy, env=env, history=cfg.proposer.history,
+    collector = training.collector_from_config(cfg, policy, env=env,
                                                total_frames=max(remaining, 1))  # fmt: skip
-    tracker = training.RunTracker(cfg, run_dir, logger, progress, checkpoint, rotation,
-                                  eval_policy=policy, history=cfg.proposer.history)  # fmt: skip
+    run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
         buffer.extend(training.select_for_replay(data))
-        progress["frames"] += data.numel()
+        run.progress.frames += data.numel()
         for _ in range(cfg.optim.updates_per_batch):
-            out = training.gradient_step(loss, optimisers, target_updater,
-                                         buffer.sample().to(cfg.device))  # fmt: skip
-            progress["updates"] += 1
+            out = learner.step(buffer.sample().to(cfg.device))
+            run.progress.updates += 1
         collector.update_policy_weights_()  # worker processes / Ray act with the new weights
-        metrics = {f"train/{k}": out[k].item() for k in LOGGED_LOSS_KEYS}
-        tracker.step(data, metrics)
-    facts = {**stage.facts, **tracker.finish(collector)}
+        run.step(data, learner.metrics(out))
+    facts = {**stage.facts, **run.finish(collector)}
 
-    # 4. evaluation on held-out seeds
-    policies = diffusion.evaluation_policies(
-        "diffusion_rl",
-        policy,
-        actor,
-        proposer,
-        pick=cfg.proposer.alone_pick,
-        alone_candidates=cfg.proposer.alone_candidates,
-        alone_replan_every=cfg.proposer.alone_replan_every,
-        ranks=cfg.eval.ranks,
-    )
-    policies.update(training.reference_policies())
-    facts["gradient updates"] = progress["updates"]
-    summary = training.finish_run(
-        cfg, run_dir, logger, policies, title="Diffusion + Q selection + SAC", facts=facts,
-        step=progress["frames"], history=cfg.proposer.history,
-    )  # fmt: skip
-    print(summary.read_text())
+    # 4. evaluation on held-out seeds: the framework, each rank alone (OA, CA1, ...), the actor
+    #    alone, the proposer alone, the expert and random actions
+    policies = training.evaluation_policies_from_config(cfg, "diffusion_rl", policy, actor,
+                                                        proposer)  # fmt: skip
+    title = "Diffusion + Q selection + SAC"
+    print(run.evaluate(policies, title=title, facts=facts).read_text())
 
 
 if __name__ == "__main__":

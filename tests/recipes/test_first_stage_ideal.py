@@ -15,8 +15,13 @@ from __future__ import annotations
 import torch
 from omegaconf import OmegaConf
 
-from torchrl_auv.training import evaluate, first_stage_from_config, reference_policies
-from torchrl_auv.training.diffusion import make_history_env, proposer_alone
+from torchrl_auv.training import (
+    evaluate,
+    first_stage_from_config,
+    make_history_env,
+    proposer_alone,
+    reference_policies,
+)
 
 STEPS = 300  # decisions per evaluation episode
 

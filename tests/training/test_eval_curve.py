@@ -49,12 +49,12 @@ def _curve_steps(path):
 
 
 def test_the_curve_is_evaluated_at_the_start_and_at_each_multiple(tmp_path):
-    policy, progress = _Calls(), {"frames": 0}
+    policy, progress = _Calls(), training.Progress()
     tracker = training.RunTracker(_cfg(10), tmp_path, None, progress, None, None,
                                   eval_policy=policy)  # fmt: skip
     assert policy.calls == 4  # frame 0: one episode of curve_steps decisions
     for frames in (8, 16, 30, 31):
-        progress["frames"] = frames
+        progress.frames = frames
         tracker.step(_batch(), {})
     steps, rows = _curve_steps(tmp_path / "eval_curve.csv")
     assert steps == [0, 16, 30]  # 8: not yet 10; 30 jumps two multiples: one evaluation
@@ -65,24 +65,24 @@ def test_the_curve_is_evaluated_at_the_start_and_at_each_multiple(tmp_path):
 
 
 def test_a_resumed_run_does_not_evaluate_its_start_again_and_off_means_off(tmp_path):
-    policy, progress = _Calls(), {"frames": 16}
+    policy, progress = _Calls(), training.Progress(frames=16)
     tracker = training.RunTracker(_cfg(10), tmp_path, None, progress, None, None,
                                   eval_policy=policy)  # fmt: skip
-    progress["frames"] = 19
+    progress.frames = 19
     tracker.step(_batch(), {})
     assert policy.calls == 0
-    progress["frames"] = 20
+    progress.frames = 20
     tracker.step(_batch(), {})
     assert _curve_steps(tmp_path / "eval_curve.csv")[0] == [20]
     off = _Calls()
     (tmp_path / "off").mkdir()
-    training.RunTracker(_cfg(None), tmp_path / "off", None, {"frames": 0}, None, None,
+    training.RunTracker(_cfg(None), tmp_path / "off", None, training.Progress(), None, None,
                         eval_policy=off).step(_batch(), {})  # fmt: skip
     assert off.calls == 0 and not (tmp_path / "off" / "eval_curve.csv").exists()
 
 
 def test_the_bar_shows_the_last_ended_episodes_not_nan(tmp_path):
-    tracker = training.RunTracker(_cfg(None), tmp_path, None, {"frames": 0}, None, None)
+    tracker = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(), None, None)
     tracker.step(_batch(), {})
     assert set(tracker.bar.postfix.replace(" ", "").split(",")) == {"cost=1.000"}  # none ended
     ended = _batch()

@@ -10,7 +10,6 @@ from tensordict import TensorDict
 from torchrl_auv import training
 from torchrl_auv.advisor import AdvisorTrigger, RuleBasedAdvisor
 from torchrl_auv.objectives import LyapunovSpec
-from torchrl_auv.training import diffusion
 
 
 @pytest.mark.parametrize(
@@ -88,14 +87,14 @@ def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
 
 
 def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
-    env = diffusion.make_history_env("ideal", history=2, seed=0, num_envs=1, max_steps=5)
+    env = training.make_history_env("ideal", history=2, seed=0, num_envs=1, max_steps=5)
     from torchrl_auv.modules import DiffusionProposer
 
     proposer = DiffusionProposer.for_env(env, num_candidates=2, horizon=2, num_inference_steps=2)
-    critic = diffusion.make_lyapunov_critic(env, (8,))
-    loss = diffusion.make_lac_loss(training.make_actor(env, (8,)), critic, env)
-    policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov", loss=loss,
-                                             critic_out_key=diffusion.LYAPUNOV_RAW)  # fmt: skip
+    critic = training.make_lyapunov_critic(env, (8,))
+    loss = training.make_lac_loss(training.make_actor(env, (8,)), critic, env)
+    policy = training.make_selection_policy(proposer, critic, mode="lyapunov", loss=loss,
+                                             critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
     selector = policy[-1]
     assert selector.spec == loss.spec
     loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))  # an advisor's step
@@ -111,29 +110,29 @@ def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
     with pytest.raises(ValueError, match="spec must be a LyapunovSpec"):
         loss.spec = "squared"
     with pytest.raises(ValueError, match="needs mode='lyapunov'"):
-        diffusion.make_selection_policy(proposer, critic, mode="q", loss=loss,
-                                        critic_out_key=diffusion.LYAPUNOV_RAW)  # fmt: skip
+        training.make_selection_policy(proposer, critic, mode="q", loss=loss,
+                                        critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
 
 
 def test_feedback_batch_puts_time_second_last_per_auv():
     obs = torch.arange(2 * 5 * 3 * 37, dtype=torch.float32).reshape(2, 5, 3, 37)
     data = TensorDict({("agents", "observation"): obs,
                        ("next", "agents", "reward"): torch.zeros(2, 5, 3, 1)}, [2, 5])  # fmt: skip
-    fb = diffusion.feedback_batch(data)
+    fb = training.feedback_batch(data)
     assert fb["observation"].shape == (2, 3, 5, 37) and fb.batch_size == (2, 3, 5)
     torch.testing.assert_close(fb["observation"][1, 2, 4], obs[1, 4, 2])
 
 
 def test_ranked_candidates_and_the_live_lyapunov_critic():
-    env = diffusion.make_history_env("ideal", history=2, seed=0, num_envs=2, max_steps=20)
+    env = training.make_history_env("ideal", history=2, seed=0, num_envs=2, max_steps=20)
     from torchrl_auv.modules import DiffusionProposer
 
     proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
     actor = training.make_actor(env, (16,))
-    critic = diffusion.make_lyapunov_critic(env, (16,))
-    loss = diffusion.make_lac_loss(actor, critic, env)
-    policy = diffusion.make_selection_policy(proposer, critic, mode="lyapunov", actor=actor,
-                                             critic_out_key=diffusion.LYAPUNOV_RAW,
+    critic = training.make_lyapunov_critic(env, (16,))
+    loss = training.make_lac_loss(actor, critic, env)
+    policy = training.make_selection_policy(proposer, critic, mode="lyapunov", actor=actor,
+                                             critic_out_key=training.LYAPUNOV_RAW,
                                              loss=loss)  # fmt: skip
     td = policy(env.reset())
     scores, ranking = td["agents", "selector", "scores"], td["agents", "selector", "ranking"]
@@ -143,9 +142,9 @@ def test_ranked_candidates_and_the_live_lyapunov_critic():
     assert (ordered[..., :-1] >= ordered[..., 1:]).all()
     for rank in (0, 3):
         torch.manual_seed(1)
-        out = diffusion.RankedCandidate(policy, rank)(env.reset())
+        out = training.RankedCandidate(policy, rank)(env.reset())
         first = torch.cat([out["agents", "proposer", "first_actions"],
-                           out[diffusion.ACTOR_ACTION].unsqueeze(-2)], -2)  # fmt: skip
+                           out[training.ACTOR_ACTION].unsqueeze(-2)], -2)  # fmt: skip
         index = out["agents", "selector", "ranking"][..., rank]
         chosen = first.gather(-2, index[..., None, None].expand(2, 2, 1, 3))[..., 0, :]
         torch.testing.assert_close(out["agents", "action"], chosen)
@@ -160,23 +159,23 @@ def test_ranked_candidates_and_the_live_lyapunov_critic():
 
 
 def test_without_the_actor_the_selection_set_is_the_k_candidates():
-    env = diffusion.make_history_env("ideal", history=2, seed=0, num_envs=2, max_steps=20)
+    env = training.make_history_env("ideal", history=2, seed=0, num_envs=2, max_steps=20)
     from torchrl_auv.modules import DiffusionProposer
 
     proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
     actor = training.make_actor(env, (16,))
-    critic = diffusion.make_lyapunov_critic(env, (16,))
-    loss = diffusion.make_lac_loss(actor, critic, env)
-    policy = diffusion.make_selection_policy(
-        proposer, critic, mode="lyapunov", actor=None, critic_out_key=diffusion.LYAPUNOV_RAW,
+    critic = training.make_lyapunov_critic(env, (16,))
+    loss = training.make_lac_loss(actor, critic, env)
+    policy = training.make_selection_policy(
+        proposer, critic, mode="lyapunov", actor=None, critic_out_key=training.LYAPUNOV_RAW,
         loss=loss,
     )  # fmt: skip
     td = policy(env.reset())
     assert td["agents", "selector", "scores"].shape[-1] == 3
-    assert diffusion.ACTOR_ACTION not in td.keys(True, True)
-    rows = diffusion.evaluation_policies("diffusion_lac", policy, actor, proposer)
+    assert training.ACTOR_ACTION not in td.keys(True, True)
+    rows = training.evaluation_policies("diffusion_lac", policy, actor, proposer)
     assert {"OA", "CA1", "CA2", "RL", "proposer alone"} <= set(rows) and "CA3" not in rows
-    rows = diffusion.evaluation_policies("diffusion_lac", policy, actor, proposer, ranks=False)
+    rows = training.evaluation_policies("diffusion_lac", policy, actor, proposer, ranks=False)
     assert set(rows) == {"diffusion_lac", "RL", "proposer alone"}
 
 
@@ -234,10 +233,10 @@ def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
     cfg.env.compile_physics = True
     assert training.env_from_config(cfg).vehicles.compile is True
     cfg.eval = {"num_envs": 1, "steps": 5}
-    held_out = training.held_out_env(cfg, 0, 1, 5)
+    held_out = training.held_out_env(cfg, 1, 5)
     assert held_out("ideal", 100000).vehicles.compile is True  # evaluation compiles too
     cfg.env.compile_physics = False
-    assert training.held_out_env(cfg, 0, 1, 5)("ideal", 100000).vehicles.compile is False
+    assert training.held_out_env(cfg, 1, 5)("ideal", 100000).vehicles.compile is False
 
     path = tmp_path / "proposer.pt"
     obs = len(AGENT_OBSERVATION_FEATURES)  # history 0: the observation alone
@@ -247,9 +246,9 @@ def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
                     "num_inference_steps": 2, "sampler": "ddim", "hidden": 8,
                     "demo_sea_state": "ideal"}  # fmt: skip
     cfg.proposer = proposer_cfg
-    assert diffusion.proposer_from_config(cfg).compile is False
+    assert training.proposer_from_config(cfg).compile is False
     cfg.proposer.compile = True
-    assert diffusion.proposer_from_config(cfg).compile is True
+    assert training.proposer_from_config(cfg).compile is True
 
 
 def test_the_critic_loss_functions_reach_the_losses():
@@ -257,9 +256,9 @@ def test_the_critic_loss_functions_reach_the_losses():
     actor, critic = training.make_actor(env, (8,)), training.make_q_critic(env, (8,))
     assert training.make_sac_loss(actor, critic, env)[0].loss_function == "smooth_l1"  # TorchRL's
     assert training.make_sac_loss(actor, critic, env, loss_function="l2")[0].loss_function == "l2"
-    lyapunov = diffusion.make_lyapunov_critic(env, (8,))
-    assert diffusion.make_lac_loss(actor, lyapunov, env).loss_function == "l2"
-    huber = diffusion.make_lac_loss(actor, lyapunov, env, loss_function="smooth_l1")
+    lyapunov = training.make_lyapunov_critic(env, (8,))
+    assert training.make_lac_loss(actor, lyapunov, env).loss_function == "l2"
+    huber = training.make_lac_loss(actor, lyapunov, env, loss_function="smooth_l1")
     assert huber.loss_function == "smooth_l1"
 
 
@@ -270,17 +269,17 @@ def test_the_lyapunov_cost_choice_sets_what_each_critic_learns():
     from torchrl.objectives import SoftUpdate
 
     env = training.make_env("ideal", seed=0, num_envs=2, max_steps=5)
-    actor, lyapunov = training.make_actor(env, (8,)), diffusion.make_lyapunov_critic(env, (8,))
-    task = diffusion.make_lac_loss(actor, lyapunov, env)
+    actor, lyapunov = training.make_actor(env, (8,)), training.make_lyapunov_critic(env, (8,))
+    task = training.make_lac_loss(actor, lyapunov, env)
     assert task.qvalue_network is None and task.tensor_keys.cost == ("agents", "cost")
-    stable = diffusion.make_lac_loss(actor, lyapunov, env, cost="stability", hidden=(8,))
+    stable = training.make_lac_loss(actor, lyapunov, env, cost="stability", hidden=(8,))
     assert stable.tensor_keys.cost == ("agents", "stability_cost")
     assert stable.tensor_keys.task_cost == ("agents", "cost")
     updater = SoftUpdate(stable, tau=0.5)  # before any forward, as the recipes do
     data = training.select_for_replay(env.rollout(4, actor))
     out = stable(data)
     assert torch.isfinite(out["loss_qvalue"]) and torch.isfinite(out["loss_lyapunov"])
-    optimisers = diffusion.lac_optimisers(
+    optimisers = training.lac_optimisers(
         stable, OmegaConf.create({"actor_lr": 1e-3, "critic_lr": 1e-3, "dual_lr": 1e-3})
     )
     critic_params = {id(p) for g in optimisers["critic_optim"].param_groups for p in g["params"]}
@@ -290,7 +289,7 @@ def test_the_lyapunov_cost_choice_sets_what_each_critic_learns():
     after = stable.target_qvalue_network_params.values(True, True)
     assert any((a != b).any() for a, b in zip(after, before, strict=True))
     with pytest.raises(ValueError, match="cost must be one of"):
-        diffusion.make_lac_loss(actor, lyapunov, env, cost="energy")
+        training.make_lac_loss(actor, lyapunov, env, cost="energy")
 
 
 def test_close_logger_finishes_wandb_runs_and_leaves_other_loggers(tmp_path):

@@ -274,7 +274,7 @@ class DataCollectionEnv(EnvBase):
     # -- keys ----------------------------------------------------------------------------
     @property
     def observation_dim(self) -> int:
-        """Features per AUV (31)."""
+        """Features per AUV (37: ``AGENT_OBSERVATION_FEATURES``)."""
         return len(AGENT_OBSERVATION_FEATURES)
 
     @property

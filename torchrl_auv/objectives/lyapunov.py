@@ -244,9 +244,9 @@ class LyapunovActorCriticLoss(LossModule):
 
         Examples:
             >>> from torchrl_auv.objectives import CandidateSelector
-            >>> from torchrl_auv.training import diffusion, make_actor, make_env
+            >>> from torchrl_auv.training import make_actor, make_env, make_lyapunov_critic
             >>> env = make_env("ideal", seed=0, num_envs=1, max_steps=2)
-            >>> critic = diffusion.make_lyapunov_critic(env, (8,))
+            >>> critic = make_lyapunov_critic(env, (8,))
             >>> loss = LyapunovActorCriticLoss(make_actor(env, (8,)), critic)
             >>> selector = loss.share_spec(CandidateSelector(critic, mode="lyapunov"))
             >>> loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))

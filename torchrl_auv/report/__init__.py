@@ -14,6 +14,7 @@ from torchrl_auv.report.proposals import (
     plot_pretraining_loss,
     setpoint_paths,
 )
+from torchrl_auv.report.run_plots import plot_run
 from torchrl_auv.report.tracking import KalmanObserver, plot_tracking, tracking_table
 
 __all__ = [
@@ -22,6 +23,7 @@ __all__ = [
     "plot_episode",
     "plot_learning_curve",
     "plot_pretraining_loss",
+    "plot_run",
     "plot_tracking",
     "read_curve",
     "setpoint_paths",

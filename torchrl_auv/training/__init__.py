@@ -1,7 +1,25 @@
-"""What the training recipes share and users import: factories, checkpoints, evaluation.
+"""What the training recipes share and users import, one file per thing a recipe builds.
 
-``recipes/<name>/train.py`` are short scripts composed from these pieces; copy one and swap a
-factory to build your own pipeline.
+================  ==========================================================================
+module            builds
+================  ==========================================================================
+``env``           the run's envs from ``cfg.env``: training scenes, worker factories,
+                  held-out evaluation scenes (``env.history``: the proposer's history)
+``networks``      per-AUV actor, Q critic, Lyapunov critic (weights shared by the AUVs)
+``sac``           SAC's learner: ``SACLoss``, target updater, optimisers, logged keys
+``lac``           LAC's learner: ``LyapunovActorCriticLoss``, target updater, optimisers
+``learner``       :class:`Learner`, what one gradient step touches
+``first_stage``   the pretrained proposer (cached artefact per first-stage values)
+``selection``     the proposer + selector policy, ranked candidates, the evaluation rows
+``replay``        the replay buffer and what it stores of a frame
+``collectors``    TorchRL collectors: local, worker processes, Ray
+``run``           :class:`Run`: folder, logger, checkpoint, counters, final evaluation
+``tracking``      the loop's bookkeeping: metrics, progress bar, learning curve
+``evaluation``    held-out evaluation of policies (the task's metrics)
+================  ==========================================================================
+
+``recipes/<name>/train.py`` are short scripts composed from these pieces (the loop written
+out, as in TorchRL's sota-implementations); copy one and swap a piece to build your own.
 """
 
 from __future__ import annotations
@@ -17,9 +35,18 @@ from torchrl_auv.training.collectors import (
     COLLECTOR_BACKENDS,
     check_ray_address,
     check_ray_backend,
+    collector_from_config,
     make_collector,
 )
 from torchrl_auv.training.config import check_choices, check_config
+from torchrl_auv.training.env import (
+    env_factory,
+    env_from_config,
+    env_history,
+    held_out_env,
+    make_env,
+    make_history_env,
+)
 from torchrl_auv.training.evaluation import (
     POLICIES,
     episode_stats,
@@ -28,54 +55,106 @@ from torchrl_auv.training.evaluation import (
     make_policy,
     reference_policies,
 )
-from torchrl_auv.training.factories import (
-    REPLAY_KEYS,
-    bytes_per_frame,
-    make_actor,
-    make_env,
-    make_logger,
-    make_q_critic,
-    make_replay_buffer,
-    make_sac_loss,
-    select_for_replay,
-)
 from torchrl_auv.training.first_stage import (
     FIRST_STAGE_VERSION,
     FirstStage,
     build_first_stage,
     first_stage_from_config,
     first_stage_values,
+    proposer_from_config,
 )
-from torchrl_auv.training.run import (
-    RunTracker,
-    batch_metrics,
-    buffer_from_config,
+from torchrl_auv.training.keys import (
+    ACTION,
+    ACTOR_ACTION,
+    AGENTS,
+    LYAPUNOV_RAW,
+    OBSERVATION,
+    Q_VALUE,
+)
+from torchrl_auv.training.lac import (
+    LAC_LOGGED_KEYS,
+    LYAPUNOV_COSTS,
+    AdvisorLoop,
+    advisor_from_config,
+    feedback_batch,
+    lac_from_config,
+    lac_optimisers,
+    make_lac_loss,
+)
+from torchrl_auv.training.learner import Learner, gradient_step
+from torchrl_auv.training.loggers import (
     close_logger,
-    collector_from_config,
-    env_from_config,
-    finish_run,
-    gradient_step,
-    held_out_env,
     log_metrics,
     logger_from_config,
-    prepare_resume,
-    progress_postfix,
+    make_logger,
+)
+from torchrl_auv.training.networks import (
+    ObsActionMLP,
+    make_actor,
+    make_lyapunov_critic,
+    make_q_critic,
+    observation_action_dims,
+)
+from torchrl_auv.training.replay import (
+    REPLAY_KEYS,
+    buffer_from_config,
+    bytes_per_frame,
+    make_replay_buffer,
+    select_for_replay,
+)
+from torchrl_auv.training.run import Progress, Run, finish_run, prepare_resume, start_run
+from torchrl_auv.training.sac import (
+    SAC_LOGGED_KEYS,
+    make_sac_loss,
+    sac_from_config,
     sac_optimisers,
-    start_run,
 )
 from torchrl_auv.training.seeding import configure_threads, seed_everything
+from torchrl_auv.training.selection import (
+    RankedCandidate,
+    acting_actor,
+    evaluation_policies,
+    evaluation_policies_from_config,
+    make_selection_policy,
+    proposer_alone,
+)
 from torchrl_auv.training.summary import write_eval, write_summary
+from torchrl_auv.training.tracking import (
+    EPISODE_METRICS,
+    RunTracker,
+    batch_metrics,
+    peak_rss_mb,
+    progress_postfix,
+)
 
 __all__ = [
+    "ACTION",
+    "ACTOR_ACTION",
+    "AGENTS",
     "COLLECTOR_BACKENDS",
+    "EPISODE_METRICS",
     "FIRST_STAGE_VERSION",
+    "LAC_LOGGED_KEYS",
+    "LYAPUNOV_COSTS",
+    "LYAPUNOV_RAW",
+    "OBSERVATION",
     "POLICIES",
+    "Q_VALUE",
     "REPLAY_KEYS",
+    "SAC_LOGGED_KEYS",
+    "AdvisorLoop",
     "ArtefactCache",
     "FirstStage",
+    "Learner",
+    "ObsActionMLP",
+    "Progress",
     "ProgressState",
+    "RankedCandidate",
+    "Run",
     "RunTracker",
     "SpecState",
+    "acting_actor",
+    "advisor_from_config",
     "batch_metrics",
     "buffer_from_config",
     "build_first_stage",
@@ -87,30 +166,46 @@ __all__ = [
     "close_logger",
     "collector_from_config",
     "configure_threads",
+    "env_factory",
     "env_from_config",
+    "env_history",
     "episode_stats",
     "evaluate",
+    "evaluation_policies",
+    "evaluation_policies_from_config",
     "exit_policy",
+    "feedback_batch",
     "finish_run",
     "first_stage_from_config",
     "first_stage_values",
     "gradient_step",
     "held_out_env",
+    "lac_from_config",
+    "lac_optimisers",
     "log_metrics",
     "logger_from_config",
     "make_actor",
     "make_checkpoint",
     "make_collector",
     "make_env",
+    "make_history_env",
+    "make_lac_loss",
     "make_logger",
+    "make_lyapunov_critic",
     "make_policy",
     "make_q_critic",
     "make_replay_buffer",
     "make_sac_loss",
+    "make_selection_policy",
+    "observation_action_dims",
+    "peak_rss_mb",
     "prepare_resume",
     "progress_postfix",
+    "proposer_alone",
+    "proposer_from_config",
     "reference_policies",
     "resume_latest",
+    "sac_from_config",
     "sac_optimisers",
     "seed_everything",
     "select_for_replay",

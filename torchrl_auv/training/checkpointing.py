@@ -31,24 +31,30 @@ __all__ = ["ProgressState", "SpecState", "make_checkpoint", "resume_latest"]
 
 
 class ProgressState:
-    """A JSON-able dict of a run's counters (frames, logger step, ...) as a checkpoint
-    component: ``state_dict`` / ``load_state_dict`` update the live dict in place."""
+    """A run's counters (frames, updates, ...) as a checkpoint component: a dict or a dataclass
+    (:class:`~torchrl_auv.training.Progress`) of numbers, updated in place on load."""
 
-    def __init__(self, values: dict) -> None:
+    def __init__(self, values) -> None:
         self.values = values
 
     def state_dict(self) -> dict:
+        if dataclasses.is_dataclass(self.values):
+            return dataclasses.asdict(self.values)
         return dict(self.values)
 
     def load_state_dict(self, state: Mapping) -> None:
-        self.values.update(state)
+        if dataclasses.is_dataclass(self.values):
+            for key, value in state.items():
+                setattr(self.values, key, value)
+        else:
+            self.values.update(state)
 
 
 def make_checkpoint(
     run_dir: str | Path,
     *,
     modules: Mapping[str, object],
-    progress: dict,
+    progress,
     keep_last: int = 2,
 ) -> tuple[Checkpoint, CheckpointRotation]:
     """A checkpoint of ``modules`` (anything with ``state_dict``: networks, losses with their
@@ -62,7 +68,7 @@ def make_checkpoint(
     return checkpoint, CheckpointRotation(Path(run_dir) / "checkpoints", keep_last=keep_last)
 
 
-def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress: dict) -> tuple[int, dict]:
+def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress) -> tuple[int, dict]:
     """Load the newest checkpoint under ``run_dir/checkpoints`` into ``checkpoint``'s live
     components. Returns the frames it had reached and its plain (JSON) values, e.g. the
     stored ``config`` (``(0, {})`` and nothing loaded when there is none)."""
@@ -70,7 +76,8 @@ def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress: dict) -
     if latest is None:
         return 0, {}
     result = checkpoint.load(latest)
-    return int(progress.get("frames", 0)), dict(result.values)
+    frames = progress.frames if dataclasses.is_dataclass(progress) else progress.get("frames", 0)
+    return int(frames), dict(result.values)
 
 
 class SpecState:

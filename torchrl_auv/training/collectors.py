@@ -40,7 +40,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import socket
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from functools import partial
 
 import torch
@@ -48,10 +48,13 @@ from tensordict import TensorDictBase
 from torchrl.collectors import Collector, MultiSyncCollector
 from torchrl.envs import EnvBase
 
+from torchrl_auv.training.env import env_factory
+
 __all__ = [
     "COLLECTOR_BACKENDS",
     "check_ray_address",
     "check_ray_backend",
+    "collector_from_config",
     "make_collector",
     "ray_init_config",
 ]
@@ -188,3 +191,28 @@ def make_collector(
     )  # fmt: skip
     collector.update_policy_weights_(policy)  # the workers start from the learner's weights
     return collector
+
+
+def collector_from_config(
+    cfg: Mapping,
+    policy,
+    *,
+    env=None,
+    total_frames: int | None = None,
+    init_random_frames: int = 0,
+):
+    """The collector of ``cfg.collector`` (:func:`make_collector`): ``env`` itself with one
+    local worker, else fresh envs of ``cfg.env`` in every worker
+    (:func:`~torchrl_auv.training.env_factory`, worker ``i`` seeded ``cfg.seed + i``).
+    ``total_frames`` defaults to ``cfg.collector.total_frames``; ``init_random_frames`` are
+    the random frames still to go."""
+    col = cfg["collector"]
+    single = col["backend"] == "local" and col["num_workers"] == 1
+    create = env if single and env is not None else env_factory(cfg)
+    return make_collector(
+        create, policy, seed=cfg["seed"], frames_per_batch=col["frames_per_batch"],
+        total_frames=col["total_frames"] if total_frames is None else total_frames,
+        init_random_frames=init_random_frames, device=cfg["device"],
+        num_workers=col["num_workers"], backend=col["backend"],
+        ray_address=col.get("ray_address"),
+    )  # fmt: skip

@@ -1,0 +1,162 @@
+"""Building a first stage (:func:`build_first_stage`): the expert's demonstrations, the
+proposer's pretraining and the DAgger rounds, written into one artefact folder. The steps, the
+folder's files and how artefacts are keyed and reused: :mod:`~torchrl_auv.training.first_stage`.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import json
+import logging
+import time
+from collections.abc import Callable, Mapping
+from functools import partial
+from pathlib import Path
+
+import torch
+from tensordict import TensorDictBase
+
+from torchrl_auv.envs.demonstrations import collect_demonstration_batches, save_demonstrations
+from torchrl_auv.modules import DiffusionProposer, ProposerAlone
+from torchrl_auv.objectives import pretrain_proposer
+from torchrl_auv.training.keys import AGENTS, OBSERVATION
+
+__all__ = ["build_first_stage"]
+
+log = logging.getLogger(__name__)
+
+
+def _noise_model_kwargs(model: Mapping) -> dict:
+    if model["noise_model"] == "mlp":
+        return {"hidden": model["hidden"], "cond_dim": model["cond_dim"], "depth": model["depth"]}
+    return {"channels": (model["hidden"],) * model["depth"], "cond_dim": model["cond_dim"]}
+
+
+def _dagger_policy(proposer: DiffusionProposer, env) -> ProposerAlone:
+    """The proposer acting alone in a demonstration env (picklable through ``partial``)."""
+    return ProposerAlone(proposer, "medoid", action_key=env.base_env.agent_action_key)
+
+
+def _nested(data: TensorDictBase) -> TensorDictBase:
+    """Demonstration samples with the env's keys (the dataset's are flat: ``observation``,
+    ``("history", ...)``)."""
+    nested = data.empty()
+    nested[OBSERVATION] = data["observation"]
+    nested[AGENTS, "history"] = data["history"]
+    for key in ("action_chunk", "action_chunk_mask", "overridden", "episode"):
+        nested[key] = data[key]
+    return nested
+
+
+def _append(data: TensorDictBase, more: TensorDictBase) -> TensorDictBase:
+    """``data`` and ``more`` as one dataset, ``more``'s episodes numbered after ``data``'s."""
+    more = more.exclude("executed")
+    more["episode"] = more["episode"] + int(data["episode"].max()) + 1
+    return torch.cat([data, more.select(*data.keys(True, True))])
+
+
+def build_first_stage(
+    folder: str | Path,
+    values: Mapping,
+    *,
+    workers: int = 1,
+    plot_loss: Callable | None = None,
+) -> dict:
+    """Collect the demonstrations, pretrain a proposer, run the DAgger rounds and write the
+    artefact into ``folder`` (module docstring). ``workers`` processes collect the batches
+    of scenes; ``plot_loss(steps, losses, path, heldout_steps=, heldout_losses=, phases=)``
+    (e.g. :func:`torchrl_auv.report.plot_pretraining_loss`) draws ``loss.png``. Returns the
+    metrics written to ``metrics.json``."""
+    folder = Path(folder)
+    demo, model, train = values["demonstrations"], values["model"], values["pretraining"]
+    dagger = values["dagger"]
+    collect = partial(
+        collect_demonstration_batches, workers=workers, seed=values["seed"],
+        env="data_collection", episodes=demo["demo_episodes"], max_steps=demo["demo_steps"],
+        horizon=demo["horizon"], history=demo["history"], sea_state=values["sea_state"],
+        controller=values["controller"], rate_model=values["rate_model"],
+    )  # fmt: skip
+    start = time.perf_counter()
+    data = collect(demo["demo_batches"])
+    metrics = {"samples": len(data), "overridden_samples": int(data["overridden"].sum()),
+               "demonstrations_s": time.perf_counter() - start}  # fmt: skip
+    save_demonstrations(data, folder / "demonstrations", metadata=dict(values))
+    obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
+    history = demo["history"]
+    proposer = DiffusionProposer(
+        obs_dim + history * (obs_dim + act_dim + 1), act_dim, state_key=OBSERVATION,
+        history_key=(AGENTS, "history"), horizon=demo["horizon"], noise_model=model["noise_model"],
+        noise_model_kwargs=_noise_model_kwargs(model), num_train_steps=model["num_train_steps"],
+        schedule=model["schedule"],
+    )  # fmt: skip
+    curve = {"phase": [], "step": [], "split": [], "loss": []}
+    phases: list[tuple[int, str]] = []
+
+    def fit(phase: str, steps: int, lr: float, first: bool) -> float:
+        """Train on ``data`` (fitting the state standardisation the first time); add the
+        curves to ``curve`` after the steps so far; return the held-out loss."""
+        offset = curve["step"][-1] if curve["step"] else 0
+        phases.append((offset, phase))
+        began = time.perf_counter()
+        with torch.random.fork_rng():  # the replay buffer's sampler draws from the global RNG
+            torch.manual_seed(values["seed"] + len(phases))
+            result = pretrain_proposer(
+                proposer, _nested(data), steps=steps, batch_size=train["batch_size"], lr=lr,
+                lr_schedule=train["lr_schedule"], weight_decay=train["weight_decay"],
+                ema_decay=train["ema_decay"], normalize_state=first and
+                train["normalize_state"], heldout_fraction=train["heldout_fraction"],
+                seed=values["seed"], log_every=max(1, steps // 100),
+                eval_every=max(1, steps // 10),
+            )  # fmt: skip
+        metrics[f"{phase}_s"] = time.perf_counter() - began
+        for split, steps_, losses in (
+            ("train", result.steps, result.losses),
+            ("heldout", result.heldout_steps, result.heldout_losses),
+        ):
+            for step, value in zip(steps_, losses, strict=True):
+                curve["phase"].append(phase)
+                curve["step"].append(offset + step)
+                curve["split"].append(split)
+                curve["loss"].append(value)
+        log.info("first stage: %s, %d samples, %d steps in %.0f s, held-out loss %.4f", phase,
+                 len(data), steps, metrics[f"{phase}_s"], result.heldout_loss)  # fmt: skip
+        return result.heldout_loss
+
+    metrics["pretraining_heldout_loss"] = fit("pretraining", train["pretrain_steps"],
+                                              train["lr"], first=True)  # fmt: skip
+    proposer.use_ema = train["ema_decay"] is not None
+    if dagger["dagger_rounds"]:
+        proposer.save(folder / "proposer_bc.pt")  # before DAgger: behaviour cloning alone
+    for r in range(1, dagger["dagger_rounds"] + 1):
+        actor = copy.deepcopy(proposer)
+        actor.configure_sampling(num_inference_steps=dagger["dagger_inference_steps"],
+                                 sampler="ddim")  # fmt: skip
+        start = time.perf_counter()
+        first_batch = demo["demo_batches"] + (r - 1) * dagger["dagger_batches"]
+        visited = collect(dagger["dagger_batches"], first_batch=first_batch,
+                          policy=partial(_dagger_policy, actor))  # fmt: skip
+        metrics[f"dagger{r}_collection_s"] = time.perf_counter() - start
+        metrics[f"dagger{r}_samples"] = len(visited)
+        save_demonstrations(visited, folder / f"dagger{r}", metadata={**values, "round": r})
+        data = _append(data, visited)
+        metrics[f"dagger{r}_heldout_loss"] = fit(f"dagger{r}", dagger["dagger_steps"],
+                                                 dagger["dagger_lr"], first=False)  # fmt: skip
+    proposer.save(folder / "proposer.pt")
+    with open(folder / "pretrain_loss.csv", "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(("step", "split", "loss", "phase"))
+        writer.writerows(zip(curve["step"], curve["split"], curve["loss"], curve["phase"],
+                             strict=True))  # fmt: skip
+    if plot_loss is not None:
+        split = [s == "train" for s in curve["split"]]
+        pick = lambda key, keep: [v for v, k in zip(curve[key], split, strict=True) if k == keep]  # noqa: E731
+        plot_loss(pick("step", True), pick("loss", True), folder / "loss.png",
+                  heldout_steps=pick("step", False), heldout_losses=pick("loss", False),
+                  phases=phases)  # fmt: skip
+    losses = [v for v, s in zip(curve["loss"], curve["split"], strict=True) if s == "train"]
+    metrics.update(final_training_loss=losses[-1], training_samples=len(data),
+                   heldout_loss=metrics[f"dagger{dagger['dagger_rounds']}_heldout_loss"]
+                   if dagger["dagger_rounds"] else metrics["pretraining_heldout_loss"])  # fmt: skip
+    (folder / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    return metrics

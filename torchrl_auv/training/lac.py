@@ -1,0 +1,189 @@
+"""The Lyapunov actor-critic (LAC) as a recipe builds it: the loss on the agents layout, its
+target updater, optimisers and logged outputs (:func:`lac_from_config`), and the batch the LLM
+advisor's training feedback reads (:func:`feedback_batch`).
+
+Examples:
+    >>> from torchrl_auv.training import make_actor, make_env, make_lyapunov_critic
+    >>> env = make_env("ideal", seed=0, num_envs=2, max_steps=5)
+    >>> loss = make_lac_loss(make_actor(env, (16,)), make_lyapunov_critic(env, (16,)), env,
+    ...                      cost="stability", hidden=(16,))
+    >>> loss.tensor_keys.cost, loss.qvalue_network is not None
+    (('agents', 'stability_cost'), True)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from tensordict.nn import TensorDictModule
+from torchrl.modules import ProbabilisticActor
+from torchrl.objectives import SoftUpdate
+
+from torchrl_auv import advisor as advisors
+from torchrl_auv.objectives import LyapunovActorCriticLoss
+from torchrl_auv.training.checkpointing import SpecState
+from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
+from torchrl_auv.training.learner import Learner
+from torchrl_auv.training.networks import make_q_critic, observation_action_dims
+
+__all__ = [
+    "LAC_LOGGED_KEYS",
+    "LYAPUNOV_COSTS",
+    "AdvisorLoop",
+    "advisor_from_config",
+    "feedback_batch",
+    "lac_from_config",
+    "lac_optimisers",
+    "make_lac_loss",
+]
+
+#: The loss outputs a recipe logs (``train/<key>``; the task critic's with ``cost="stability"``).
+LAC_LOGGED_KEYS = ("loss_actor", "loss_lyapunov", "lambda", "beta", "violation_rate", "delta_l",
+                   "loss_qvalue", "qvalue")  # fmt: skip
+
+
+#: ``lyapunov.cost`` choices: which cost the Lyapunov critic learns (the loss's docstring)
+LYAPUNOV_COSTS = ("task", "stability")
+
+
+def make_lac_loss(
+    actor: ProbabilisticActor,
+    critic: TensorDictModule,
+    env,
+    *,
+    gamma: float = 0.97,
+    form: str = "softplus",
+    stability_weight: float = 0.1,
+    lambda_max: float = 1.0,
+    loss_function: str = "l2",
+    cost: str = "task",
+    hidden: Sequence[int] = (256, 256),
+) -> LyapunovActorCriticLoss:
+    """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
+    (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
+
+    ``cost`` (:data:`LYAPUNOV_COSTS`): ``"task"`` (the paper): the Lyapunov critic learns
+    ``("agents", "cost")`` and the actor minimises it through L alone; ``"stability"``: the
+    Lyapunov critic learns ``("agents", "stability_cost")`` (0 in service) and carries the
+    constraint, while a task Q critic (:func:`~torchrl_auv.training.make_q_critic` with
+    ``hidden``) learns ``("agents", "cost")`` and gives the actor the task."""
+    if cost not in LYAPUNOV_COSTS:
+        raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
+    qvalue = make_q_critic(env, hidden) if cost == "stability" else None
+    loss = LyapunovActorCriticLoss(
+        actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
+        target_entropy=-float(observation_action_dims(env)[1]), loss_function=loss_function,
+        qvalue_network=qvalue,
+    )  # fmt: skip
+    lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
+    loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=lyapunov_cost,
+                  task_cost=(AGENTS, "cost"), done=(AGENTS, "done"),
+                  terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW, qvalue=Q_VALUE,
+                  observation=OBSERVATION)  # fmt: skip
+    loss.make_value_estimator(gamma=gamma)
+    return loss
+
+
+def lac_optimisers(
+    loss: LyapunovActorCriticLoss, optim: Mapping
+) -> dict[str, torch.optim.Optimizer]:
+    """Adam for the actor, the critics (Lyapunov, and the task Q critic when the loss has one)
+    and the dual variables (lambda, beta)."""
+    critics = list(loss.lyapunov_network_params.parameters())
+    if loss.qvalue_network is not None:
+        critics += list(loss.qvalue_network_params.parameters())
+    return {
+        "actor_optim": torch.optim.Adam(loss.actor_network_params.parameters(),
+                                        lr=optim["actor_lr"]),
+        "critic_optim": torch.optim.Adam(critics, lr=optim["critic_lr"]),
+        "dual_optim": torch.optim.Adam([loss.log_lambda, loss.log_beta], lr=optim["dual_lr"]),
+    }  # fmt: skip
+
+
+def feedback_batch(data: TensorDictBase) -> TensorDict:
+    """The entries of a collected batch ``[B, T]`` the advisor's feedback reads, with time the
+    second-last dim per AUV (``observation`` ``[B, N, T, obs]``, ``("next", "reward")``
+    ``[B, N, T, 1]``), as :func:`~torchrl_auv.advisor.feedback_from_training` expects."""
+    observation = data[OBSERVATION].transpose(-2, -3)
+    return TensorDict(
+        {
+            "observation": observation,
+            ("next", "reward"): data["next", AGENTS, "reward"].transpose(-2, -3),
+        },
+        batch_size=observation.shape[:-1],
+    )
+
+
+def lac_from_config(
+    cfg: Mapping, env, actor: ProbabilisticActor, critic: TensorDictModule
+) -> Learner:
+    """The LAC learner of a recipe config: :func:`make_lac_loss` with ``cfg.optim`` (gamma,
+    lambda_max, the critics' loss function), ``cfg.advisor``'s initial form and stability
+    weight and ``cfg.lyapunov.cost``; a ``SoftUpdate`` of ``cfg.optim.tau`` (made before the
+    loss's first forward, as TorchRL requires); :func:`lac_optimisers`; logging
+    :data:`LAC_LOGGED_KEYS`. ``critic`` is the Lyapunov critic the selector ranks with too."""
+    optim, advisor = cfg["optim"], cfg["advisor"]
+    loss = make_lac_loss(actor, critic, env, gamma=optim["gamma"], form=advisor["form"],
+                         stability_weight=advisor["stability_weight"],
+                         lambda_max=optim["lambda_max"], loss_function=optim["loss_function"],
+                         cost=cfg["lyapunov"]["cost"], hidden=cfg["network"]["hidden"])  # fmt: skip
+    target_updater = SoftUpdate(loss, tau=optim["tau"])
+    return Learner(loss, target_updater, lac_optimisers(loss, optim), LAC_LOGGED_KEYS)
+
+
+def advisor_from_config(cfg: Mapping):
+    """The advisor of ``cfg.advisor.backend``: ``rules`` (offline default), ``fixed`` (the form
+    and weight stay as configured: the alpha and form studies) or ``openai`` (any
+    OpenAI-compatible endpoint at ``base_url``, the key read from ``api_key_env``)."""
+    a = cfg["advisor"]
+    if a["backend"] == "rules":
+        return advisors.RuleBasedAdvisor()
+    if a["backend"] == "fixed":
+        return advisors.FixedAdvisor()
+    if a["backend"] == "openai":
+        return advisors.OpenAICompatibleAdvisor(a["base_url"], a["model"],
+                                                api_key_env=a["api_key_env"])  # fmt: skip
+    raise ValueError(f"advisor.backend must be 'rules', 'fixed' or 'openai', got {a['backend']!r}")
+
+
+class AdvisorLoop:
+    """The LLM outer loop of a LAC run: after each batch, the training feedback over the last
+    ``cfg.advisor.window`` batches goes to the :class:`~torchrl_auv.advisor.AdvisorTrigger`,
+    which consults the advisor at the start and when the feedback crosses a threshold (after
+    ``cfg.advisor.cooldown`` frames) and applies its Lyapunov spec to the loss, the spec's
+    owner: the selector follows. Decisions go to ``run_dir/advisor.jsonl`` and the logger.
+
+    Checkpoint :meth:`checkpoint_modules` with the run: the spec in force and the trigger's
+    cooldown resume with it.
+    """
+
+    def __init__(self, cfg: Mapping, run_dir: str | Path, logger,
+                 loss: LyapunovActorCriticLoss) -> None:  # fmt: skip
+        a = cfg["advisor"]
+        self.cfg, self.loss = a, loss
+        self.trigger = advisors.AdvisorTrigger(
+            advisor_from_config(cfg), a["task"], log_path=Path(run_dir) / "advisor.jsonl",
+            cooldown=a["cooldown"], logger=logger,
+        )  # fmt: skip
+        self.window: list = []
+        self.outputs: list = []
+
+    def checkpoint_modules(self) -> dict[str, object]:
+        """The spec in force (:class:`~torchrl_auv.training.SpecState`) and the trigger."""
+        return {"spec": SpecState(self.loss), "advisor": self.trigger}
+
+    def step(self, frames: int, data: TensorDictBase, out: TensorDictBase) -> dict[str, float]:
+        """After a batch ``data`` whose last update returned ``out``; returns
+        ``train/form_index`` (the form in force, :data:`~torchrl_auv.advisor.FORM_ORDER`)."""
+        window = self.cfg["window"]
+        self.window = [*self.window, feedback_batch(data)][-window:]
+        self.outputs = [*self.outputs, out.detach()][-window:]
+        feedback = advisors.feedback_from_training(
+            self.window, self.outputs, position_indices=self.cfg["position_indices"],
+            velocity_indices=self.cfg["velocity_indices"],
+        )  # fmt: skip
+        self.trigger.step(frames, feedback, self.loss)
+        return {"train/form_index": advisors.FORM_ORDER.index(self.loss.spec.form)}

@@ -1,0 +1,95 @@
+"""The networks of the training recipes: per-AUV actor and critics, one set of weights shared
+by the AUVs (each AUV decides from its own observation; the demonstrations the proposer learns
+from are per AUV too). The flat layout would tie the networks to the number of AUVs and double
+the input width for nothing.
+
+Examples:
+    >>> from torchrl_auv.training import make_env
+    >>> env = make_env("ideal", seed=0, num_envs=2)
+    >>> td = make_actor(env, hidden=(32, 32))(env.reset())
+    >>> make_q_critic(env, hidden=(32,))(td)["agents", "state_action_value"].shape
+    torch.Size([2, 2, 1])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import torch
+from tensordict.nn import NormalParamExtractor, TensorDictModule
+from torch import nn
+from torchrl.modules import MLP, ProbabilisticActor, TanhNormal
+
+from torchrl_auv.envs import DataCollectionEnv
+from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
+
+__all__ = [
+    "ObsActionMLP",
+    "make_actor",
+    "make_lyapunov_critic",
+    "make_q_critic",
+    "observation_action_dims",
+]
+
+
+def observation_action_dims(env: DataCollectionEnv) -> tuple[int, int]:
+    """Features per AUV of the observation and of the action."""
+    obs = env.observation_spec[OBSERVATION].shape[-1]
+    return obs, env.full_action_spec[ACTION].shape[-1]
+
+
+def make_actor(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) -> ProbabilisticActor:
+    """Per-AUV TanhNormal actor (shared weights) within the env's action bounds ``[-1, 1]``.
+
+    Reads ``("agents", "observation")``, writes ``("agents", "loc" | "scale" | "action")``.
+    """
+    obs_dim, act_dim = observation_action_dims(env)
+    net = nn.Sequential(
+        MLP(in_features=obs_dim, out_features=2 * act_dim, num_cells=list(hidden),
+            activation_class=nn.ReLU),
+        NormalParamExtractor(),
+    )  # fmt: skip
+    module = TensorDictModule(net, in_keys=[OBSERVATION], out_keys=[(AGENTS, "loc"),
+                                                                    (AGENTS, "scale")])  # fmt: skip
+    spec = env.full_action_spec[ACTION]
+    return ProbabilisticActor(
+        module,
+        in_keys=[(AGENTS, "loc"), (AGENTS, "scale")],
+        out_keys=[ACTION],
+        spec=env.full_action_spec,
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": spec.space.low[0, 0], "high": spec.space.high[0, 0]},
+        return_log_prob=False,
+    )
+
+
+class ObsActionMLP(nn.Module):
+    """An MLP of the concatenated observation and action (a critic's body), one output."""
+
+    def __init__(self, in_features: int, hidden: Sequence[int]) -> None:
+        super().__init__()
+        self.net = MLP(in_features=in_features, out_features=1, num_cells=list(hidden),
+                       activation_class=nn.ReLU)  # fmt: skip
+
+    def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        return self.net(torch.cat([obs, action], -1))
+
+
+def make_q_critic(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) -> TensorDictModule:
+    """Per-AUV Q(o, a) (shared weights), written to ``("agents", "state_action_value")``.
+
+    A plain ``TensorDictModule`` with an explicit out key: TorchRL's ``ValueOperator`` names its
+    output ``state_value`` when the action key is nested.
+    """
+    obs_dim, act_dim = observation_action_dims(env)
+    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden), in_keys=[OBSERVATION, ACTION],
+                            out_keys=[Q_VALUE])  # fmt: skip
+
+
+def make_lyapunov_critic(env, hidden: Sequence[int] = (256, 256)) -> TensorDictModule:
+    """Per-AUV Lyapunov critic's raw output z(o, a) (shared weights) at
+    ``("agents", "lyapunov_raw")``; the form (e.g. softplus) is applied by the loss and the
+    selector."""
+    obs_dim, act_dim = observation_action_dims(env)
+    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden), in_keys=[OBSERVATION, ACTION],
+                            out_keys=[LYAPUNOV_RAW])  # fmt: skip

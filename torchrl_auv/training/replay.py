@@ -1,0 +1,76 @@
+"""The replay buffer of the recipes: what a learner reads of each collected frame, stored in
+RAM or on disk.
+
+Examples:
+    >>> from torchrl_auv.training import make_env
+    >>> frames = select_for_replay(make_env("ideal", seed=0, num_envs=2).rollout(3))
+    >>> frames.batch_size, bytes_per_frame(frames[0]) < 1024
+    (torch.Size([6]), True)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from tensordict import TensorDictBase
+from torchrl.data import LazyMemmapStorage, LazyTensorStorage, TensorDictReplayBuffer
+
+from torchrl_auv.training.keys import ACTION, AGENTS, OBSERVATION
+
+__all__ = [
+    "REPLAY_KEYS",
+    "buffer_from_config",
+    "bytes_per_frame",
+    "make_replay_buffer",
+    "select_for_replay",
+]
+
+
+#: What the losses read: the env's tensordict also carries the whole simulator state
+#: (terrain, waves, nodes: about 30 KB per scene and step), which the buffer must not store.
+REPLAY_KEYS = (
+    OBSERVATION,
+    ACTION,
+    ("next", AGENTS, "observation"),
+    ("next", AGENTS, "reward"),
+    ("next", AGENTS, "cost"),
+    ("next", AGENTS, "stability_cost"),
+    ("next", AGENTS, "done"),
+    ("next", AGENTS, "terminated"),
+)
+
+
+def select_for_replay(data: TensorDictBase) -> TensorDictBase:
+    """The frames of a collected batch with only :data:`REPLAY_KEYS`, flattened to ``[frames]``."""
+    return data.select(*REPLAY_KEYS).reshape(-1)
+
+
+def bytes_per_frame(frame: TensorDictBase) -> int:
+    """Bytes one stored frame takes (the sum over its leaves; ``frame`` has batch ``[]``)."""
+    return sum(t.numel() * t.element_size() for t in frame.values(True, True))
+
+
+def make_replay_buffer(
+    size: int,
+    *,
+    batch_size: int,
+    storage: str = "memory",
+    scratch_dir: str | Path | None = None,
+) -> TensorDictReplayBuffer:
+    """Uniform replay of ``size`` frames in RAM (``storage="memory"``) or on disk
+    (``"memmap"``, under ``scratch_dir``)."""
+    if storage == "memory":
+        backing = LazyTensorStorage(size)
+    elif storage == "memmap":
+        backing = LazyMemmapStorage(size, scratch_dir=scratch_dir)
+    else:
+        raise ValueError(f"replay_buffer.storage must be 'memory' or 'memmap', got {storage!r}")
+    return TensorDictReplayBuffer(storage=backing, batch_size=batch_size)
+
+
+def buffer_from_config(cfg: Mapping, run_dir: str | Path) -> TensorDictReplayBuffer:
+    """The replay buffer of ``cfg.replay_buffer`` (memmap under ``run_dir/replay``)."""
+    rb = cfg["replay_buffer"]
+    return make_replay_buffer(rb["size"], batch_size=rb["batch_size"], storage=rb["storage"],
+                              scratch_dir=Path(run_dir) / "replay")  # fmt: skip

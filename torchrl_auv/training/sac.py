@@ -1,0 +1,79 @@
+"""SAC, the paper's RL baseline, as a recipe builds it: TorchRL's ``SACLoss`` on the agents
+layout, its target updater, optimisers and logged outputs (:func:`sac_from_config`).
+
+Examples:
+    >>> from torchrl_auv.training import make_actor, make_env, make_q_critic, select_for_replay
+    >>> env = make_env("ideal", seed=0, num_envs=2)
+    >>> actor = make_actor(env, hidden=(32, 32))
+    >>> loss, target_updater = make_sac_loss(actor, make_q_critic(env, hidden=(32, 32)), env)
+    >>> sorted(loss(select_for_replay(env.rollout(3, actor))).keys())[:3]
+    ['alpha', 'entropy', 'loss_actor']
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import torch
+from tensordict.nn import TensorDictModule
+from torchrl.modules import ProbabilisticActor
+from torchrl.objectives import SACLoss, SoftUpdate
+
+from torchrl_auv.envs import DataCollectionEnv
+from torchrl_auv.training.keys import ACTION, AGENTS, Q_VALUE
+from torchrl_auv.training.learner import Learner
+from torchrl_auv.training.networks import make_q_critic, observation_action_dims
+
+__all__ = ["SAC_LOGGED_KEYS", "make_sac_loss", "sac_from_config", "sac_optimisers"]
+
+#: The ``SACLoss`` outputs a recipe logs (``train/<key>``).
+SAC_LOGGED_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy")
+
+
+def make_sac_loss(
+    actor: ProbabilisticActor,
+    critic: TensorDictModule,
+    env: DataCollectionEnv,
+    *,
+    gamma: float = 0.97,
+    alpha_init: float = 1.0,
+    num_qvalue_nets: int = 2,
+    tau: float = 0.005,
+    loss_function: str = "smooth_l1",
+) -> tuple[SACLoss, SoftUpdate]:
+    """TorchRL's ``SACLoss`` on the agents layout (reward ``== -cost``) and its target updater.
+
+    The target entropy is ``-action_dim`` per AUV; ``loss_function`` is SACLoss's Q loss
+    (``smooth_l1``, SACLoss's own default, or ``l2``).
+    """
+    loss = SACLoss(actor_network=actor, qvalue_network=critic, num_qvalue_nets=num_qvalue_nets,
+                   alpha_init=alpha_init, target_entropy=-float(observation_action_dims(env)[1]),
+                   delay_qvalue=True, loss_function=loss_function)  # fmt: skip
+    loss.set_keys(action=ACTION, state_action_value=Q_VALUE, reward=(AGENTS, "reward"),
+                  done=(AGENTS, "done"), terminated=(AGENTS, "terminated"))  # fmt: skip
+    loss.make_value_estimator(gamma=gamma)
+    return loss, SoftUpdate(loss, tau=tau)
+
+
+def sac_optimisers(loss, optim: Mapping) -> dict[str, torch.optim.Optimizer]:
+    """Adam for a ``SACLoss``'s actor, Q ensemble and temperature (``optim.*_lr``)."""
+    return {
+        "actor_optim": torch.optim.Adam(loss.actor_network_params.parameters(),
+                                        lr=optim["actor_lr"]),
+        "critic_optim": torch.optim.Adam(loss.qvalue_network_params.parameters(),
+                                         lr=optim["critic_lr"]),
+        "alpha_optim": torch.optim.Adam([loss.log_alpha], lr=optim["alpha_lr"]),
+    }  # fmt: skip
+
+
+def sac_from_config(cfg: Mapping, env: DataCollectionEnv, actor: ProbabilisticActor) -> Learner:
+    """The SAC learner of a recipe config: a Q ensemble of ``cfg.network.hidden``,
+    :func:`make_sac_loss` with ``cfg.optim``'s gamma, initial temperature, tau and Q loss,
+    :func:`sac_optimisers`, logging :data:`SAC_LOGGED_KEYS`."""
+    optim = cfg["optim"]
+    critic = make_q_critic(env, cfg["network"]["hidden"]).to(cfg["device"])
+    loss, target_updater = make_sac_loss(
+        actor, critic, env, gamma=optim["gamma"], alpha_init=optim["alpha_init"],
+        tau=optim["tau"], loss_function=optim["loss_function"],
+    )  # fmt: skip
+    return Learner(loss, target_updater, sac_optimisers(loss, optim), SAC_LOGGED_KEYS)

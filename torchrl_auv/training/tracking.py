@@ -1,0 +1,174 @@
+"""The bookkeeping around a recipe's loop: per-batch metrics, the progress bar, the learning
+curve from held-out evaluations, checkpoints on a cadence (:class:`RunTracker`).
+
+Examples:
+    >>> import torch
+    >>> from tensordict import TensorDict
+    >>> data = TensorDict({("next", "agents", "cost"): torch.ones(2, 3, 2, 1),
+    ...                    ("next", "done"): torch.zeros(2, 3, 1, dtype=torch.bool)}, [2, 3])
+    >>> batch_metrics(data)
+    {'train/cost_mean': 1.0}
+"""
+
+from __future__ import annotations
+
+import resource
+import sys
+import time
+from collections.abc import Mapping
+from pathlib import Path
+
+import torch
+import tqdm
+from omegaconf import DictConfig, OmegaConf
+from tensordict import TensorDictBase
+
+from torchrl_auv.training.env import held_out_env
+from torchrl_auv.training.evaluation import evaluate
+from torchrl_auv.training.loggers import log_metrics
+from torchrl_auv.training.summary import SUMMARY_COLUMNS
+
+__all__ = ["EPISODE_METRICS", "RunTracker", "batch_metrics", "peak_rss_mb", "progress_postfix"]
+
+
+#: The env's episode metrics logged as ``train/episode_<name>`` when episodes end in a batch.
+EPISODE_METRICS = ("sdr", "ssn", "collisions", "violations")
+
+
+def batch_metrics(data: TensorDictBase) -> dict[str, float]:
+    """``train/cost_mean`` (mean per AUV and decision of the collected batch); when
+    episodes ended in it, ``train/episode_<metric>`` averaged over those episodes; with a
+    candidate selector's choices in the batch (``("agents", "selector", "index")``),
+    ``train/selected_rank_<i>``: the share of AUV-decisions that executed slot ``i`` of the
+    selection set (``0 .. K-1`` the proposer's candidates, ``K`` the actor's own action when
+    it competes)."""
+    out = {"train/cost_mean": data["next", "agents", "cost"].mean().item()}
+    index = data.get(("agents", "selector", "index"), None)
+    if index is not None:
+        slots = data["agents", "selector", "scores"].shape[-1]
+        shares = torch.bincount(index.flatten(), minlength=slots).float() / index.numel()
+        out.update({f"train/selected_rank_{i}": v for i, v in enumerate(shares.tolist())})
+    ended = data["next", "done"][..., 0]
+    if ended.any():
+        for name in EPISODE_METRICS:
+            value = data["next", "metrics", name][ended].float().mean().item()
+            out[f"train/episode_{name}"] = value
+    return out
+
+
+def progress_postfix(metrics: Mapping[str, float], spec=None) -> dict[str, str]:
+    """What a recipe's tqdm bar shows after each batch: the batch's cost per AUV-decision
+    (reward = -cost), the SDR (Mbit) and SSN of the episodes that ended last (left out until
+    one has ended), and with a Lyapunov loss lambda and the form in force.
+
+    Examples:
+        >>> progress_postfix({"train/cost_mean": 1.25})
+        {'cost': '1.250'}
+        >>> progress_postfix({"train/cost_mean": 1.0, "train/episode_sdr": 7.5,
+        ...                   "train/episode_ssn": 4.0})
+        {'cost': '1.000', 'sdr': '7.5', 'ssn': '4.0'}
+    """
+    out = {"cost": f"{metrics['train/cost_mean']:.3f}"}
+    for name in ("sdr", "ssn"):
+        if f"train/episode_{name}" in metrics:
+            out[name] = f"{metrics[f'train/episode_{name}']:.1f}"
+    if "train/lambda" in metrics:
+        out["lambda"] = f"{metrics['train/lambda']:.2f}"
+    if spec is not None:
+        out["form"] = spec.form
+    return out
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory so far (MB; Linux reports kB, macOS bytes)."""
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / (1024 * 1024 if sys.platform == "darwin" else 1024)
+
+
+class RunTracker:
+    """The bookkeeping around a recipe's loop: a tqdm bar (frames, cost, SDR, SSN, lambda,
+    form), ``time/`` metrics, logging (and ``train_curve.csv``), a checkpoint every
+    ``cfg.checkpoint.every_frames`` frames and one at the end.
+
+    ``progress`` is the run's :class:`~torchrl_auv.training.Progress` (``frames``, ``updates``);
+    the recipe counts ``progress.frames`` itself (before its updates) and calls :meth:`step` once
+    per collected batch and :meth:`finish` after the loop. The evaluations use the run's envs
+    (``cfg.env``, its ``history`` included).
+
+    **Learning curves from evaluation.** With ``eval_policy`` and ``cfg.eval.every_frames``
+    set, the policy is evaluated at the start (frame 0) and each time the frame count passes
+    a multiple of ``every_frames``: ``cfg.eval.curve_envs`` held-out scenes of the training
+    sea (seed ``cfg.eval.seed``, the same scenes every time) for ``cfg.eval.curve_steps``
+    decisions, deterministic actions (:func:`evaluate`). Each metric of the summary table is
+    logged as ``eval/<metric>`` and written to ``eval_curve.csv`` (``step,key,value``); the
+    time it takes is logged as ``time/eval_s`` and left out of the frames/s.
+    """
+
+    def __init__(self, cfg: DictConfig, run_dir: Path, logger, progress, checkpoint, rotation,
+                 *, eval_policy=None) -> None:  # fmt: skip
+        self.cfg, self.logger, self.progress = cfg, logger, progress
+        self.checkpoint, self.rotation = checkpoint, rotation
+        self.curve = Path(run_dir) / "train_curve.csv"
+        self.eval_curve = Path(run_dir) / "eval_curve.csv"
+        self.bar = tqdm.tqdm(total=cfg.collector.total_frames, initial=progress.frames,
+                             unit="frame")  # fmt: skip
+        self.start = time.perf_counter()
+        self.frames_at_start = self.last_saved = progress.frames
+        self.eval_policy, self.eval_seconds = eval_policy, 0.0
+        self.last_episode: dict[str, float] = {}  # the bar's SDR/SSN: the last ended episodes
+        self.every = OmegaConf.select(cfg, "eval.every_frames", default=None) or 0
+        if eval_policy is not None and self.every:
+            self.evaluated_block = progress.frames // self.every
+            if progress.frames == 0:
+                self.evaluate_curve()
+
+    def rate(self) -> float:
+        """Frames per second of this session (collection and updates together; the learning
+        curve's evaluations left out)."""
+        elapsed = max(time.perf_counter() - self.start - self.eval_seconds, 1e-9)
+        return (self.progress.frames - self.frames_at_start) / elapsed
+
+    def evaluate_curve(self) -> dict[str, float]:
+        """One point of the learning curve (class docstring); returns its metrics."""
+        cfg, began = self.cfg, time.perf_counter()
+
+        curve_env = held_out_env(cfg, cfg.eval.curve_envs, cfg.eval.curve_steps)
+        row = evaluate(curve_env, {"policy": lambda _: self.eval_policy}, [cfg.env.sea_state],
+                       seed=cfg.eval.seed, steps=cfg.eval.curve_steps)[0]  # fmt: skip
+        seconds = time.perf_counter() - began
+        self.eval_seconds += seconds
+        metrics = {f"eval/{key}": row[key] for key in SUMMARY_COLUMNS}
+        metrics["time/eval_s"] = seconds
+        log_metrics(self.logger, metrics, self.progress.frames, curve=self.eval_curve)
+        return metrics
+
+    def step(self, data: TensorDictBase, metrics: dict[str, float], spec=None) -> None:
+        """After a batch: add the batch's metrics and the rate, log, advance the bar, save a
+        checkpoint when due."""
+        metrics.update(batch_metrics(data))
+        metrics["time/frames_per_s"] = self.rate()
+        metrics["time/elapsed_s"] = time.perf_counter() - self.start
+        frames = self.progress.frames
+        log_metrics(self.logger, metrics, frames, curve=self.curve)
+        self.bar.update(data.numel())
+        self.last_episode.update({k: v for k, v in metrics.items()
+                                  if k.startswith("train/episode_")})  # fmt: skip
+        self.bar.set_postfix(progress_postfix({**metrics, **self.last_episode}, spec))
+        if self.eval_policy is not None and self.every:
+            block = frames // self.every
+            if block > self.evaluated_block:
+                self.evaluated_block = block
+                self.evaluate_curve()
+        if frames - self.last_saved >= self.cfg.checkpoint.every_frames:
+            self.rotation.save(self.checkpoint, step=frames)
+            self.last_saved = frames
+
+    def finish(self, collector) -> dict[str, object]:
+        """Shut the collector down, save the final checkpoint; returns the session's facts
+        (frames, wall time, training frames/s, peak memory) for the summary."""
+        collector.shutdown()
+        self.bar.close()
+        self.rotation.save(self.checkpoint, step=self.progress.frames)
+        return {"frames": self.progress.frames,
+                "wall time this session (s)": time.perf_counter() - self.start,
+                "training frames/s": self.rate(), "peak RSS (MB)": peak_rss_mb()}  # fmt: skip
