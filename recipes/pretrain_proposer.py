@@ -2,7 +2,7 @@
 
     python -m recipes.pretrain_proposer --data demos/ --out runs/proposer/ [--steps 2000]
 
-Reads a dataset written by ``python -m torchrl_auv.envs.demonstrations``, builds a
+Reads a dataset written by ``python -m torchrl_auv.cli.demonstrations``, builds a
 :class:`~torchrl_auv.modules.DiffusionProposer` for its keys and shapes, trains it with
 :func:`~torchrl_auv.objectives.pretrain_proposer` and writes to ``--out`` (a new folder):
 ``proposer.pt`` (weights, config, schedule), ``loss.png`` (the paper's Fig. 4),

@@ -35,6 +35,18 @@ ALLOWED_IMPORTS: dict[str, set[str]] = {
         "objectives",
         "advisor",
     },
+    "cli": {
+        "physics",
+        "estimation",
+        "control",
+        "iout",
+        "envs",
+        "modules",
+        "objectives",
+        "advisor",
+        "training",
+        "report",
+    },
     "report": {
         "training",
         "physics",

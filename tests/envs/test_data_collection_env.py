@@ -178,7 +178,7 @@ def test_the_depth_setpoint_stays_above_the_seabed_the_altimeter_sees():
 def test_services_end_on_station_in_ideal_water():
     """The expert with the station keeper in still water, 4 scenes x 300 decisions of the
     paper's rate model: services complete and end within the service radius (a regression
-    check of the keeper; the full numbers per preset are in torchrl_auv.report.collection)."""
+    check of the keeper; the full numbers per preset are in torchrl_auv.cli.collection)."""
     env = DataCollectionEnv(batch_size=[4], seed=2, rate_model="paper")
     td = env.rollout(300, ScriptedExpert(env), break_when_any_done=False)
     final = td["next", "metrics"][:, -1]

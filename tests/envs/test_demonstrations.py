@@ -30,7 +30,7 @@ def test_cli_writes_a_dataset_that_loads_into_a_replay_buffer(tmp_path):
         [
             sys.executable,
             "-m",
-            "torchrl_auv.envs.demonstrations",
+            "torchrl_auv.cli.demonstrations",
             "--env",
             "tracking",
             "--episodes",
@@ -53,7 +53,7 @@ def test_cli_writes_a_dataset_that_loads_into_a_replay_buffer(tmp_path):
         [
             sys.executable,
             "-m",
-            "torchrl_auv.envs.demonstrations",
+            "torchrl_auv.cli.demonstrations",
             "--episodes",
             "1",
             "--max-steps",
@@ -126,7 +126,7 @@ def test_chunks_never_cross_an_episode_end():
 def test_cli_writes_a_data_collection_dataset(tmp_path):
     out = tmp_path / "demos_dc"
     subprocess.run(
-        [sys.executable, "-m", "torchrl_auv.envs.demonstrations", "--env", "data_collection",
+        [sys.executable, "-m", "torchrl_auv.cli.demonstrations", "--env", "data_collection",
          "--episodes", "1", "--max-steps", "4", "--out", str(out)],
         check=True,
         capture_output=True,

@@ -354,7 +354,7 @@ def _replay(in_path: Path, out_path: Path) -> None:
         [
             sys.executable,
             "-m",
-            "torchrl_auv.physics.remus100",
+            "torchrl_auv.cli.remus100",
             "replay",
             str(in_path),
             str(out_path),

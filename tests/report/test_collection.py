@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from torchrl_auv.cli.collection import main
 from torchrl_auv.envs import DataCollectionEnv
-from torchrl_auv.report.collection import episode_stats, main, make_policy
+from torchrl_auv.training import episode_stats, make_policy
 
 GAMMAS = (0.97, 0.99)
 

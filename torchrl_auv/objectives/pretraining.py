@@ -2,7 +2,7 @@
 
 :func:`pretrain_proposer` trains a :class:`~torchrl_auv.modules.DiffusionProposer` with
 :class:`~torchrl_auv.objectives.DenoisingLoss` on a dataset of demonstration samples (the
-TensorDict written by ``python -m torchrl_auv.envs.demonstrations``), drawing minibatches from a
+TensorDict written by ``python -m torchrl_auv.cli.demonstrations``), drawing minibatches from a
 TorchRL replay buffer, holding out a fraction of the samples to report the held-out denoising
 loss, logging the loss curve through any TorchRL logger and optionally keeping an EMA.
 """

@@ -14,7 +14,7 @@ samples, for the observation alone or the proposer's full input (observation and
 Command line (demonstrations from ``--scenes`` training scenes and ``--heldout-scenes``
 held-out ones, seeds ``--seed`` and ``--heldout-seed``)::
 
-    python -m torchrl_auv.report.imitation --sea-states ideal es ves --scenes 32
+    python -m torchrl_auv.cli.imitation --sea-states ideal es ves --scenes 32
 
 Examples:
     >>> from torchrl_auv.envs.demonstrations import collect_demonstrations
@@ -28,17 +28,11 @@ Examples:
 
 from __future__ import annotations
 
-import argparse
-import sys
-from collections.abc import Sequence
-
 import torch
 from tensordict import TensorDictBase
 from torch import nn
 
-from torchrl_auv.envs.demonstrations import collect_demonstrations
-
-__all__ = ["INPUTS", "explained_variance", "main", "regression_inputs"]
+__all__ = ["INPUTS", "explained_variance", "regression_inputs"]
 
 #: ``observation``: the observation alone; ``history``: the proposer's input (observation,
 #: the last L observations and actions, their mask).
@@ -100,41 +94,3 @@ def explained_variance(
         return (1 - (prediction - target).square().mean(0) / target.var(0)).tolist()
 
     return {"train": r2(train), "heldout": r2(heldout)}
-
-
-def main(argv: Sequence[str] | None = None) -> list[dict]:
-    """Print the markdown table of R^2 per sea state, input and action dimension."""
-    parser = argparse.ArgumentParser(prog="python -m torchrl_auv.report.imitation")
-    parser.add_argument("--sea-states", nargs="+", default=["ideal", "es", "ves"])
-    parser.add_argument("--scenes", type=int, default=32)
-    parser.add_argument("--heldout-scenes", type=int, default=8)
-    parser.add_argument("--steps", type=int, default=1000, help="decisions per scene")
-    parser.add_argument("--fit-steps", type=int, default=6000)
-    parser.add_argument("--inputs", nargs="+", default=list(INPUTS), choices=INPUTS)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--heldout-seed", type=int, default=1000)
-    args = parser.parse_args(argv)
-    torch.set_num_threads(1)
-    rows = []
-    print(
-        "| sea | inputs | samples | split | depth | heading | rpm |\n|---|---|---|---|---|---|---|"
-    )
-    for sea in args.sea_states:
-        options = {"env": "data_collection", "max_steps": args.steps, "sea_state": sea}
-        train = collect_demonstrations(episodes=args.scenes, seed=args.seed, **options)
-        heldout = collect_demonstrations(episodes=args.heldout_scenes, seed=args.heldout_seed,
-                                         **options)  # fmt: skip
-        for inputs in args.inputs:
-            r2 = explained_variance(train, heldout, inputs=inputs, steps=args.fit_steps)
-            samples = int((~train["overridden"]).sum())
-            for split in ("train", "heldout"):
-                rows.append({"sea_state": sea, "inputs": inputs, "samples": samples,
-                             "split": split, "r2": r2[split]})  # fmt: skip
-                values = " | ".join(f"{v:.2f}" for v in r2[split])
-                print(f"| {sea} | {inputs} | {samples} | {split} | {values} |", flush=True)
-    return rows
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])
-    sys.exit(0)

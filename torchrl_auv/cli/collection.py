@@ -6,7 +6,7 @@ the paper's metrics (SDR in Mbit, SSN, EC), safety (violations per AUV-decision,
 terminated episodes), station keeping (services that end within the service radius), the
 localisation (the filter's and the raw USBL fixes' position error), the cost (mean per
 AUV-decision, the share of each term, the discounted cost from reset for given discounts).
-``python -m torchrl_auv.report.collection`` prints them as a markdown table for every preset
+``python -m torchrl_auv.cli.collection`` prints them as a markdown table for every preset
 and rate model.
 """
 
@@ -20,13 +20,11 @@ import torch
 
 from torchrl_auv.envs import DataCollectionEnv
 from torchrl_auv.training.evaluation import (
-    POLICIES,
     episode_stats,
-    exit_policy,
     make_policy,
 )
 
-__all__ = ["POLICIES", "episode_stats", "exit_policy", "main", "make_policy"]
+__all__ = ["main"]
 
 
 def main(argv: Sequence[str] | None = None) -> list[dict]:
