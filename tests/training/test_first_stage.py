@@ -131,3 +131,14 @@ def test_paper_presets_run_dagger_only_in_a_current(recipe):
         assert rounds == {"ideal": 0, "es": 1, "ves": 1}
         with pytest.raises(ValueError, match=r"env\.sea_state must be one of"):
             resolve_config(compose("paper", ["env.sea_state=calm"]))
+
+
+def test_building_or_reusing_the_first_stage_leaves_the_global_rng_alike(tmp_path):
+    # a run that builds its artefact and one that reuses it must go on with the same numbers
+    torch.manual_seed(7)
+    first_stage_from_config(_cfg(tmp_path))  # builds
+    after_build = torch.rand(3)
+    torch.manual_seed(7)
+    assert not first_stage_from_config(_cfg(tmp_path)).built  # reuses
+    torch.testing.assert_close(torch.rand(3), after_build)
+

@@ -25,14 +25,8 @@ from torchrl_auv.envs.vehicles import (
     add_tracking_sums,
     tracking_errors,
 )
-from torchrl_auv.estimation import (
-    altimeter,
-    gnss_error_init,
-    gnss_error_step,
-    usbl_fix_from_asv,
-)
+from torchrl_auv.estimation import altimeter, asv_fixes, gnss_error_init
 from torchrl_auv.physics import ocean
-from torchrl_auv.physics.limits import diverged
 
 __all__ = ["AGENT_OBSERVATION_FEATURES", "VEHICLE_FEATURES", "DataCollectionEnv"]
 
@@ -59,7 +53,6 @@ AGENT_OBSERVATION_FEATURES = iout.OBSERVATION_FEATURES + VEHICLE_FEATURES
 _START_RPM = 1200.0
 _EC_SPEED_LIMIT = 3.0  # m/s; the EC model's efficiency polynomial reaches 0 at 3.25 m/s
 _START_SPEED = 1.5  # m/s
-_ASV_SPEED = 2.0  # m/s, the ASV's top speed while it follows the fleet
 _ADCP_SIGMA = 0.05  # m/s per axis: the vehicle's estimate of the current (ours)
 _ALTIMETER_SIGMA = 0.1  # m (ours)
 _ALTIMETER_RANGE = 30.0  # m: the DVL's bottom-lock range, the altitude it measures (ours)
@@ -525,18 +518,9 @@ class DataCollectionEnv(EnvBase):
         cost, terms = iout.task_cost(events, speed, task["nodes", "buffer"],
                                      task["nodes", "rate"], cfg, self.cost_weights)  # fmt: skip
 
-        # the ASV follows the fleet's centroid and gives every AUV a USBL fix, converted to NED
-        # from where its GNSS says it is
-        gap = position[..., :2].mean(-2) - td["asv"][..., :2]
-        reach = _ASV_SPEED * cfg.decision_dt_s
-        scale = reach / torch.linalg.vector_norm(gap, dim=-1, keepdim=True).clamp_min(reach)
-        asv = td["asv"] + torch.cat([gap * scale, torch.zeros(*shape, 1)], -1)
-        gnss = gnss_error_step(td["asv_gnss_error"], self.sea.gnss_sigma,
-                               self.sea.gnss_time_constant, cfg.decision_dt_s, g)  # fmt: skip
-        fix, fix_cov, valid = usbl_fix_from_asv(
-            position, asv[..., None, :].expand_as(position),
-            gnss[..., None, :].expand(*position.shape[:-1], 2), self.sea, g,
-        )  # fmt: skip
+        # the ASV follows the fleet and gives every AUV a USBL fix; the filters take them
+        asv, gnss, fix, fix_cov, valid = asv_fixes(td["asv"], td["asv_gnss_error"], position,
+                                                   self.sea, cfg.decision_dt_s, g)  # fmt: skip
         mean, cov = self.vehicles.localiser.update_usbl(
             vehicles["kf", "mean"], vehicles["kf", "cov"], fix, fix_cov, valid
         )
@@ -550,19 +534,13 @@ class DataCollectionEnv(EnvBase):
         policy_decision = decision.apply(lambda value: value * own)
         tracking = add_tracking_sums(td["tracking"], policy_decision)
 
-        x, y, m = eta[..., 0], eta[..., 1], self.exit_margin_m
-        outside = (x < -m) | (x > cfg.area_m[0] + m) | (y < -m) | (y > cfg.area_m[1] + m)
-        ending = diverged(eta, nu, act) | outside  # [*B, N]
-        extra = torch.where(ending, self.termination_cost, 0.0)
-        cost = torch.nan_to_num(cost + extra, nan=self.termination_cost)
+        # the episode ends for an AUV that diverged or left the area; ending costs its terminal
+        ending = iout.ending_auvs(eta, nu, act, cfg, self.exit_margin_m)  # [*B, N]
+        cost = iout.with_termination(cost, ending, self.termination_cost)
         stability_end = self.cost_weights.stability_termination_cost()
-        stability = iout.stability_cost(terms) + torch.where(ending, stability_end, 0.0)
-        stability = torch.nan_to_num(stability, nan=stability_end)
+        stability = iout.with_termination(iout.stability_cost(terms), ending, stability_end)
         step_count = td["step_count"] + 1
-        terminated = ending.any(-1, keepdim=True)
-        time_up = step_count >= self.max_steps
-        truncated = time_up & ~terminated
-        done = terminated | truncated
+        terminated, truncated, done = iout.episode_flags(ending, step_count, self.max_steps)
 
         out = TensorDict(
             {
@@ -589,29 +567,35 @@ class DataCollectionEnv(EnvBase):
             batch_size=shape,
         )
         self._write_observation(out, out)
+        self._write_costs(out, cost, stability, ending, done)
+        return out
+
+    def _write_costs(self, out: TensorDictBase, cost: torch.Tensor, stability: torch.Tensor,
+                     ending: torch.Tensor, done: torch.Tensor) -> None:  # fmt: skip
+        """The reward keys: summed over the AUVs (flat layout), or per AUV with per-AUV flags:
+        the AUV that ends the episode is terminated, the others truncated (they bootstrap:
+        their cost-to-go does not end with their peer's exit)."""
         cost = cost.to(torch.float32)[..., None]
         stability = stability.to(torch.float32)[..., None]
         if self.flatten_agents:
             out["cost"] = cost.sum(-2)
             out["reward"] = -out["cost"]
             out["stability_cost"] = stability.sum(-2)
-        else:
-            # the AUV that ends the episode is terminated; the others are truncated (they
-            # bootstrap: their cost-to-go does not end with their peer's exit)
-            agent_terminated = ending[..., None]
-            out["agents"] = TensorDict(
-                {
-                    "observation": out["agents", "observation"],
-                    "cost": cost,
-                    "reward": -cost,
-                    "stability_cost": stability,
-                    "terminated": agent_terminated,
-                    "truncated": done[..., None, :].expand_as(agent_terminated) & ~agent_terminated,
-                    "done": done[..., None, :].expand_as(agent_terminated).clone(),
-                },
-                batch_size=(*shape, self.num_auvs),
-            )
-        return out
+            return
+        agent_terminated = ending[..., None]
+        agent_done = done[..., None, :].expand_as(agent_terminated)
+        out["agents"] = TensorDict(
+            {
+                "observation": out["agents", "observation"],
+                "cost": cost,
+                "reward": -cost,
+                "stability_cost": stability,
+                "terminated": agent_terminated,
+                "truncated": agent_done & ~agent_terminated,
+                "done": agent_done.clone(),
+            },
+            batch_size=(*out.batch_size, self.num_auvs),
+        )
 
     def _localise(
         self,

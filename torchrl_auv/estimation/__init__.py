@@ -10,6 +10,7 @@ batched torch; randomness only from passed generators.
 
 from __future__ import annotations
 
+from torchrl_auv.estimation.asv import ASV_SPEED, asv_fixes, follow_fleet
 from torchrl_auv.estimation.kalman import kf_predict, kf_update
 from torchrl_auv.estimation.localisation import Localiser
 from torchrl_auv.estimation.sensors import (
@@ -27,13 +28,16 @@ from torchrl_auv.estimation.sensors import (
 )
 
 __all__ = [
+    "ASV_SPEED",
     "Localiser",
     "SensorNoise",
     "altimeter",
+    "asv_fixes",
     "compass",
     "depth_sensor",
     "dvl",
     "dvl_bottom_lock",
+    "follow_fleet",
     "gnss_error_init",
     "gnss_error_step",
     "kf_predict",

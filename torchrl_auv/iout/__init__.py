@@ -42,6 +42,12 @@ from torchrl_auv.iout.safety import collision_mask, nearest_auv_distance, violat
 from torchrl_auv.iout.service import reset_state, sample_auv_start, step
 from torchrl_auv.iout.station_keeping import StationKeepingConfig, station_keeping_setpoints
 from torchrl_auv.iout.targets import NO_TARGET, assign_targets, gather_nodes, priority
+from torchrl_auv.iout.termination import (
+    ending_auvs,
+    episode_flags,
+    outside_area,
+    with_termination,
+)
 from torchrl_auv.iout.terrain import make_terrain, seabed_depth
 
 __all__ = [
@@ -59,12 +65,15 @@ __all__ = [
     "assign_targets",
     "collision_mask",
     "data_arrivals",
+    "ending_auvs",
+    "episode_flags",
     "expert_setpoints",
     "gather_nodes",
     "link_rate",
     "make_terrain",
     "nearest_auv_distance",
     "other_positions",
+    "outside_area",
     "priority",
     "reset_state",
     "sample_auv_start",
@@ -76,4 +85,5 @@ __all__ = [
     "task_cost",
     "task_observation",
     "violation_mask",
+    "with_termination",
 ]

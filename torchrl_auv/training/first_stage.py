@@ -50,6 +50,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import torch
 from omegaconf import DictConfig, OmegaConf
 
 from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES
@@ -239,11 +240,14 @@ def first_stage_from_config(
         f"{values['sea_state']}-{values['controller']}-{values['rate_model']}-seed{values['seed']}"
     )
     start = time.perf_counter()
-    folder, built = cache.get_or_build(
-        name, values,
-        lambda into: build_first_stage(into, values, workers=int(p.get("demo_workers", 1)),
-                                       plot_loss=plot_loss),
-    )  # fmt: skip
+    # building draws from torch's global RNG: fork it, so that a run that builds its first
+    # stage and one that reuses it continue from the same random state (the same numbers)
+    with torch.random.fork_rng():
+        folder, built = cache.get_or_build(
+            name, values,
+            lambda into: build_first_stage(into, values, workers=int(p.get("demo_workers", 1)),
+                                           plot_loss=plot_loss),
+        )  # fmt: skip
     seconds = time.perf_counter() - start
     proposer = _apply_acting(DiffusionProposer.load(folder / "proposer.pt"), p)
     metrics = json.loads((folder / "metrics.json").read_text())
