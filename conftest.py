@@ -117,6 +117,7 @@ def global_rng_guard() -> GlobalRNGGuard:
     """``with global_rng_guard: ...`` fails the test if the block used a global RNG."""
     return GlobalRNGGuard()
 
+
 #: What torch.distributed says when Ray's workers did not join the weight-sync rendezvous within
 #: TorchRL's fixed 60 s (``torchrl.weight_update._ray._DIST_TIMEOUT``): seen on a loaded 2-core
 #: machine, where each worker spends most of a minute importing torch and building its env.

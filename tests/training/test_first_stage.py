@@ -141,4 +141,3 @@ def test_building_or_reusing_the_first_stage_leaves_the_global_rng_alike(tmp_pat
     torch.manual_seed(7)
     assert not first_stage_from_config(_cfg(tmp_path)).built  # reuses
     torch.testing.assert_close(torch.rand(3), after_build)
-

@@ -165,6 +165,16 @@ class DiffusionProposer(TensorDictModuleBase):
         return state
 
     # -- construction from an env ---------------------------------------------------------
+    @staticmethod
+    def conditioning_dim(obs_dim: int, action_dim: int, history: int) -> int:
+        """Size of the conditioning state: the observation and ``history`` pairs of
+        (observation, action, validity flag).
+
+        >>> DiffusionProposer.conditioning_dim(16, 3, 10)
+        216
+        """
+        return obs_dim + history * (obs_dim + action_dim + 1)
+
     @classmethod
     def for_env(
         cls,
@@ -199,7 +209,7 @@ class DiffusionProposer(TensorDictModuleBase):
         high = action_spec.space.high.reshape(-1, action_dim)[0]
         if (*history_key, "observation") in obs_spec.keys(True, True):
             history_length = obs_spec[(*history_key, "observation")].shape[-2]
-        state_dim = obs_dim + history_length * (obs_dim + action_dim + 1)
+        state_dim = cls.conditioning_dim(obs_dim, action_dim, history_length)
         return cls(
             state_dim, action_dim, state_key=obs_key, history_key=history_key,
             action_low=low, action_high=high, num_candidates=num_candidates, horizon=horizon,

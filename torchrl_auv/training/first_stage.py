@@ -191,7 +191,7 @@ def _check_structure(proposer: DiffusionProposer, p: Mapping, source: Path) -> N
         )
     history = p.get("history", FIRST_STAGE_DEFAULTS["history"])
     obs, act = len(AGENT_OBSERVATION_FEATURES), proposer.action_dim
-    expected = obs + history * (obs + act + 1)
+    expected = DiffusionProposer.conditioning_dim(obs, act, history)
     if proposer.state_dim != expected:
         raise ValueError(
             f"{source} conditions on {proposer.state_dim} features, but the data-collection "

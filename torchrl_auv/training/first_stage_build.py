@@ -85,7 +85,8 @@ def build_first_stage(
     obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
     history = demo["history"]
     proposer = DiffusionProposer(
-        obs_dim + history * (obs_dim + act_dim + 1), act_dim, state_key=OBSERVATION,
+        DiffusionProposer.conditioning_dim(obs_dim, act_dim, history), act_dim,
+        state_key=OBSERVATION,
         history_key=(AGENTS, "history"), horizon=demo["horizon"], noise_model=model["noise_model"],
         noise_model_kwargs=_noise_model_kwargs(model), num_train_steps=model["num_train_steps"],
         schedule=model["schedule"],

@@ -180,7 +180,7 @@ class AdvisorLoop:
         ``train/form_index`` (the form in force, :data:`~torchrl_auv.advisor.FORM_ORDER`)."""
         window = self.cfg["window"]
         self.window = [*self.window, feedback_batch(data)][-window:]
-        self.outputs = [*self.outputs, out.detach()][-window:]
+        self.outputs = [*self.outputs, out][-window:]  # Learner.step's output: detached
         feedback = advisors.feedback_from_training(
             self.window, self.outputs, position_indices=self.cfg["position_indices"],
             velocity_indices=self.cfg["velocity_indices"],
