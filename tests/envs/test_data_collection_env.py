@@ -10,7 +10,7 @@ import torch
 from torchrl.envs import TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
-from torchrl_auv.envs import DataCollectionEnv, ScriptedExpert, StateActionHistory
+from torchrl_auv.envs import SIM_KEY, DataCollectionEnv, ScriptedExpert, StateActionHistory
 from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES
 
 METRICS = (
@@ -71,6 +71,23 @@ def test_multi_agent_keys_and_shapes():
     assert td["next", "metrics", "sdr"].shape == (2, 3)
 
 
+def test_the_simulator_state_is_one_key_and_the_rest_fits_in_1_kb_per_frame():
+    """Everything a learner does not need lives under ``"sim"``: excluding it (and its
+    ``next``) leaves the observation, action, reward, done, metrics and cost terms, at most
+    1 KB per frame for the default two AUVs, and nothing else at the top level."""
+    env = DataCollectionEnv(batch_size=[2], seed=0)
+    td = env.rollout(4)
+    sim_leaves = td["sim"].keys(True, True)
+    assert {"truth", "kf", "task", "ocean", "sensors", "setpoint"} <= set(td["sim"].keys())
+    assert ("truth", "eta") in sim_leaves
+    kept = td.exclude(SIM_KEY, ("next", SIM_KEY))
+    assert set(kept.keys()) == {"agents", "cost_terms", "done", "metrics", "next", "overridden",
+                                "step_count", "terminated", "truncated"}  # fmt: skip
+    per_frame = kept.bytes() / td.numel()
+    assert per_frame <= 1024, per_frame
+    assert td.bytes() / td.numel() > 10 * per_frame  # the simulator state is the bulk
+
+
 def test_same_seed_same_rollout_different_seed_differs():
     def rollout(seed):
         env = DataCollectionEnv(batch_size=[2], sea_state="ves", seed=seed)
@@ -78,14 +95,19 @@ def test_same_seed_same_rollout_different_seed_differs():
 
     a, b, c = rollout(3), rollout(3), rollout(4)
     assert (a == b).all()
-    assert not torch.equal(a["next", "truth", "eta"], c["next", "truth", "eta"])
-    assert not torch.equal(a["task", "nodes", "position"], c["task", "nodes", "position"])
+    assert not torch.equal(a["next", "sim", "truth", "eta"], c["next", "sim", "truth", "eta"])
+    assert not torch.equal(
+        a["sim", "task", "nodes", "position"], c["sim", "task", "nodes", "position"]
+    )
 
 
 def test_observation_is_the_estimate_not_the_truth():
     env = DataCollectionEnv(batch_size=[4], sea_state="es", seed=0)
     td = env.rollout(20)
-    estimate, truth = td["next", "kf", "mean"][..., :3], td["next", "truth", "eta"][..., :3]
+    estimate, truth = (
+        td["next", "sim", "kf", "mean"][..., :3],
+        td["next", "sim", "truth", "eta"][..., :3],
+    )
     error = (estimate - truth)[..., :2].norm(dim=-1)
     # the ASV's GNSS error (sigma 1.5 m per axis in es, 60 s correlation) biases the fixes:
     # the filter is metres off, not centimetres, and not wildly so
@@ -107,7 +129,10 @@ def test_the_current_and_altitude_features_are_the_vehicles_own_measurements():
     env = DataCollectionEnv(batch_size=[8], sea_state="ves", seed=1)
     td = env.rollout(30, ScriptedExpert(env), break_when_any_done=False)
     obs, nxt = td["next", "agents", "observation"], td["next"]
-    speed, direction = nxt["ocean", "current_speed"], nxt["ocean", "current_direction"]
+    speed, direction = (
+        nxt["sim", "ocean", "current_speed"],
+        nxt["sim", "ocean", "current_direction"],
+    )
     flow = torch.stack((speed * torch.cos(direction), speed * torch.sin(direction)), -1)
     seen = torch.stack((obs[..., FEATURE["current_north"]], obs[..., FEATURE["current_east"]]), -1)
     noise = seen - flow[..., None, :]
@@ -115,8 +140,8 @@ def test_the_current_and_altitude_features_are_the_vehicles_own_measurements():
     h_max = env.config.seabed_depth_range_m[1]
     from torchrl_auv import iout
 
-    eta = nxt["truth", "eta"]
-    terrain = nxt["task", "terrain"]
+    eta = nxt["sim", "truth", "eta"]
+    terrain = nxt["sim", "task", "terrain"]
     seabed = torch.stack([iout.seabed_depth(terrain[:, t], eta[:, t, :, 0], eta[:, t, :, 1],
                                             env.config) for t in range(30)], 1)  # fmt: skip
     true_altitude = seabed - eta[..., 2]
@@ -136,43 +161,45 @@ def test_an_auv_in_service_gets_the_station_keepers_setpoints():
 
     env = DataCollectionEnv(batch_size=[4], sea_state="es", seed=3, num_auvs=2)
     td = env.reset()
-    td["task", "auvs", "in_service"][:, 0] = True
-    td["task", "auvs", "service_remaining"][:, 0] = 50.0
+    td["sim", "task", "auvs", "in_service"][:, 0] = True
+    td["sim", "task", "auvs", "service_remaining"][:, 0] = 50.0
     td["agents", "action"] = torch.full((4, 2, 3), 0.7)
     before = td.clone()
     out = env.step(td)["next"]
-    eta_hat, _ = env.vehicles.estimate(before)
-    node = iout.gather_nodes(before["task", "nodes", "position"], before["task", "auvs", "target"])
-    sensors = before["sensors"]
+    eta_hat, _ = env.vehicles.estimate(before["sim"])
+    node = iout.gather_nodes(
+        before["sim", "task", "nodes", "position"], before["sim", "task", "auvs", "target"]
+    )
+    sensors = before["sim", "sensors"]
     altitude = torch.where(sensors["altitude_valid"], sensors["altitude"], torch.nan)
     depth, heading, rpm = iout.station_keeping_setpoints(
         eta_hat[:, 0, :3], eta_hat[:, 0, 5], node[:, 0], sensors["current"][:, 0],
         altitude[:, 0], env.station_keeping,
     )  # fmt: skip
-    torch.testing.assert_close(out["setpoint"][:, 0], torch.stack((depth, heading, rpm), -1))
+    torch.testing.assert_close(out["sim", "setpoint"][:, 0], torch.stack((depth, heading, rpm), -1))
     assert out["overridden"][:, 0].all() and not out["overridden"][:, 1].any()
     # not in service: 0.7 -> depth + 0.56 m (above the seabed the altimeter sees, if any),
     # heading + 0.105 rad, 380 * 3.7 rpm
-    sp = before["setpoint"][:, 1]
-    torch.testing.assert_close(out["setpoint"][:, 1, 1], sp[:, 1] + 0.105)
-    torch.testing.assert_close(out["setpoint"][:, 1, 2], torch.full((4,), 380.0 * 3.7))
-    assert (out["setpoint"][:, 1, 0] <= sp[:, 0] + 0.56 + 1e-5).all()
+    sp = before["sim", "setpoint"][:, 1]
+    torch.testing.assert_close(out["sim", "setpoint"][:, 1, 1], sp[:, 1] + 0.105)
+    torch.testing.assert_close(out["sim", "setpoint"][:, 1, 2], torch.full((4,), 380.0 * 3.7))
+    assert (out["sim", "setpoint"][:, 1, 0] <= sp[:, 0] + 0.56 + 1e-5).all()
 
 
 def test_the_depth_setpoint_stays_above_the_seabed_the_altimeter_sees():
     """z_sp <= z_hat + altitude - clearance (1 m) when the altimeter has a reading."""
     env = DataCollectionEnv(batch_size=[2], seed=0, num_auvs=1, num_sensors=5)
     td = env.reset()
-    td["sensors", "altitude"][:] = 3.0
-    td["sensors", "altitude_valid"][:] = True
-    td["setpoint"][..., 0] = td["kf", "mean"][..., 2] + 1.5
+    td["sim", "sensors", "altitude"][:] = 3.0
+    td["sim", "sensors", "altitude_valid"][:] = True
+    td["sim", "setpoint"][..., 0] = td["sim", "kf", "mean"][..., 2] + 1.5
     td["agents", "action"] = torch.ones(2, 1, 3)  # deeper by 0.8 m
     out = env.step(td.clone())["next"]
-    floor = td["kf", "mean"][..., 2] + 3.0 - 1.0
-    torch.testing.assert_close(out["setpoint"][..., 0], floor)
-    td["sensors", "altitude_valid"][:] = False  # no echo: no clamp from the altimeter
+    floor = td["sim", "kf", "mean"][..., 2] + 3.0 - 1.0
+    torch.testing.assert_close(out["sim", "setpoint"][..., 0], floor)
+    td["sim", "sensors", "altitude_valid"][:] = False  # no echo: no clamp from the altimeter
     out = env.step(td.clone())["next"]
-    torch.testing.assert_close(out["setpoint"][..., 0], td["setpoint"][..., 0] + 0.8)
+    torch.testing.assert_close(out["sim", "setpoint"][..., 0], td["sim", "setpoint"][..., 0] + 0.8)
 
 
 def test_services_end_on_station_in_ideal_water():
@@ -201,7 +228,7 @@ def test_truncation_and_metrics_at_the_time_limit():
 def test_leaving_the_area_terminates_with_the_termination_cost():
     env = DataCollectionEnv(batch_size=[1], seed=0, num_auvs=1, exit_margin_m=0.0)
     td = env.reset()
-    td["truth", "eta"][..., 0] = -0.5  # already outside: the first step ends the episode
+    td["sim", "truth", "eta"][..., 0] = -0.5  # already outside: the first step ends the episode
     td["agents", "action"] = torch.zeros(1, 1, 3)
     out = env.step(td)["next"]
     assert out["terminated"].all() and not out["truncated"].any()
@@ -223,7 +250,9 @@ def test_the_stability_cost_is_zero_in_service_and_sums_the_terms_that_vanish_th
     by_hand = terms["distance"] + terms["regress"] + terms["collision"] + terms["violation"]
     torch.testing.assert_close(stability, by_hand)
     serving = (
-        nxt["task", "auvs", "in_service"] & (terms["violation"] == 0) & (terms["collision"] == 0)
+        nxt["sim", "task", "auvs", "in_service"]
+        & (terms["violation"] == 0)
+        & (terms["collision"] == 0)
     )
     assert serving.any() and (stability[serving] == 0).all() and (cost[serving] > 0).all()
     assert (stability[~serving] > 0).any()
@@ -264,7 +293,7 @@ def _assert_finite_and_in_bounds(env, td):
         if value.is_floating_point():
             assert torch.isfinite(value).all(), key
     assert env.full_action_spec["agents", "action"].is_in(td["agents", "action"][:, 0])
-    eta, nu = td["next", "truth", "eta"], td["next", "truth", "nu"]
+    eta, nu = td["next", "sim", "truth", "eta"], td["next", "sim", "truth", "nu"]
     seabed = env.config.seabed_depth_range_m[1]
     assert (eta[..., 2] >= 0).all() and (eta[..., 2] <= seabed).all()
     assert (eta[..., 4].abs() < 1.4).all()
@@ -346,8 +375,8 @@ def test_the_default_termination_cost_outweighs_any_continuation():
 
 @pytest.mark.parametrize(
     ("key", "index", "value"),
-    [(("truth", "eta"), 0, float("nan")), (("truth", "eta"), 1, float("nan")),
-     (("truth", "nu"), 0, float("inf")), (("truth", "actuators"), 2, float("nan"))],
+    [(("sim", "truth", "eta"), 0, float("nan")), (("sim", "truth", "eta"), 1, float("nan")),
+     (("sim", "truth", "nu"), 0, float("inf")), (("sim", "truth", "actuators"), 2, float("nan"))],
 )  # fmt: skip
 def test_a_non_finite_auv_terminates_and_its_peers_are_truncated(key, index, value):
     env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=10, termination_cost=37.0)
@@ -374,8 +403,8 @@ def test_a_non_finite_auv_terminates_and_its_peers_are_truncated(key, index, val
 
 @pytest.mark.parametrize(
     ("key", "index", "value"),
-    [(("truth", "nu"), 4, 6.0),  # finite but absurd: a 6 rad/s pitch rate loops the AUV
-     (("truth", "eta"), 0, -110.0)],  # 110 m outside the area (exit margin 100 m)
+    [(("sim", "truth", "nu"), 4, 6.0),  # finite but absurd: a 6 rad/s pitch rate loops the AUV
+     (("sim", "truth", "eta"), 0, -110.0)],  # 110 m outside the area (exit margin 100 m)
 )  # fmt: skip
 def test_the_auv_that_ends_the_episode_pays_its_cost_plus_the_termination_cost(key, index, value):
     costs = []
@@ -398,8 +427,8 @@ def test_the_auv_that_ends_the_episode_pays_its_cost_plus_the_termination_cost(k
 def test_leaving_the_area_is_a_violation_and_only_100_m_beyond_it_ends_the_episode():
     env = DataCollectionEnv(batch_size=[2], seed=0, num_auvs=1, num_sensors=10)
     td = env.reset()
-    td["truth", "eta"][:, 0, 0] = torch.tensor([-30.0, -98.0])  # outside, within the margin
-    td["truth", "eta"][:, 0, 5] = math.pi  # heading further out (south)
+    td["sim", "truth", "eta"][:, 0, 0] = torch.tensor([-30.0, -98.0])  # outside, within the margin
+    td["sim", "truth", "eta"][:, 0, 5] = math.pi  # heading further out (south)
     td["agents", "action"] = torch.zeros(2, 1, 3)
     out = env.step(td)["next"]
     assert not out["terminated"].any()
@@ -413,7 +442,7 @@ def test_leaving_the_area_is_a_violation_and_only_100_m_beyond_it_ends_the_episo
         if out["terminated"].any():
             break
     assert out["terminated"].squeeze(-1).tolist() == [False, True]
-    assert out["truth", "eta"][1, 0, 0] < -100.0 < out["truth", "eta"][0, 0, 0]
+    assert out["sim", "truth", "eta"][1, 0, 0] < -100.0 < out["sim", "truth", "eta"][0, 0, 0]
 
 
 def test_reward_is_minus_the_cost_and_the_cost_is_bounded():
@@ -435,7 +464,7 @@ def test_tracking_errors_leave_out_the_station_keeping_decisions():
     td = env.rollout(120, ScriptedExpert(env), break_when_any_done=False)
     overridden = td["next", "overridden"]
     assert overridden.any() and (~overridden).any()
-    steps = td["next", "tracking", "steps"][:, -1]  # per AUV
+    steps = td["next", "sim", "tracking", "steps"][:, -1]  # per AUV
     own = (~overridden).sum(1) * 20  # 20 physics steps per decision
     torch.testing.assert_close(steps, own.to(steps.dtype))
 
@@ -450,28 +479,33 @@ def test_time_fraction_counts_against_max_steps():
 def test_the_asv_follows_the_fleet_centroid_at_2_m_per_s():
     env = DataCollectionEnv(batch_size=[2], seed=0, num_auvs=3, num_sensors=10)
     td = env.reset()
-    centroid = td["truth", "eta"][..., :2].mean(-2)
-    td["asv"][0, :2] = centroid[0] + torch.tensor([60.0, -80.0])  # 100 m away
-    td["asv"][1, :2] = centroid[1]  # on station
+    centroid = td["sim", "truth", "eta"][..., :2].mean(-2)
+    td["sim", "asv"][0, :2] = centroid[0] + torch.tensor([60.0, -80.0])  # 100 m away
+    td["sim", "asv"][1, :2] = centroid[1]  # on station
     td["agents", "action"] = torch.zeros(2, 3, 3)
     out = env.step(td)["next"]
-    new_centroid = out["truth", "eta"][..., :2].mean(-2)
+    new_centroid = out["sim", "truth", "eta"][..., :2].mean(-2)
     # far: 2 m (one 1 s decision at 2 m/s) straight toward the fleet's new centroid
-    gap = new_centroid[0] - td["asv"][0, :2]
-    torch.testing.assert_close(out["asv"][0, :2], td["asv"][0, :2] + 2.0 * gap / gap.norm())
+    gap = new_centroid[0] - td["sim", "asv"][0, :2]
+    torch.testing.assert_close(
+        out["sim", "asv"][0, :2], td["sim", "asv"][0, :2] + 2.0 * gap / gap.norm()
+    )
     # near (the fleet moved less than 2 m): on the centroid
     assert (new_centroid[1] - centroid[1]).norm() < 2.0
-    torch.testing.assert_close(out["asv"][1, :2], new_centroid[1])
-    assert (out["asv"][:, 2] == 0).all()  # at the surface
+    torch.testing.assert_close(out["sim", "asv"][1, :2], new_centroid[1])
+    assert (out["sim", "asv"][:, 2] == 0).all()  # at the surface
 
 
 def test_the_ocean_is_as_deep_as_the_scene_mean_seabed():
     """Finite-depth waves (spec v2): each scene's ocean is reset with its terrain's mean depth,
     and its wavenumbers solve omega^2 = g k tanh(k h) there (g = 9.81 m/s^2)."""
     td = DataCollectionEnv(batch_size=[3], sea_state="ves", seed=0).reset()
-    depth = td["task", "terrain", "depth"].mean((-2, -1))
+    depth = td["sim", "task", "terrain", "depth"].mean((-2, -1))
     assert ((depth > 39.0) & (depth < 58.0)).all()
-    torch.testing.assert_close(td["ocean", "water_depth"], depth)
-    k, omega = td["ocean", "wave_number"].double(), td["ocean", "wave_frequency"].double()
+    torch.testing.assert_close(td["sim", "ocean", "water_depth"], depth)
+    k, omega = (
+        td["sim", "ocean", "wave_number"].double(),
+        td["sim", "ocean", "wave_frequency"].double(),
+    )
     residual = 9.81 * k * torch.tanh(k * depth.double()[:, None]) - omega**2
     assert residual.abs().max().item() < 1e-5  # float32 state

@@ -1,4 +1,4 @@
-"""The three first-read examples run end to end (tiny arguments) and write what they say."""
+"""The first-read examples run end to end (tiny arguments) and write what they say."""
 
 from __future__ import annotations
 
@@ -37,3 +37,14 @@ def test_proposer_candidates_samples_k_chunks_and_plots(tmp_path):
                str(tmp_path / "c.png"))  # fmt: skip
     assert "candidates (1, 5, 8, 3)" in out
     assert (tmp_path / "c.png").stat().st_size > 10_000
+
+
+def test_plain_torchrl_sac_stores_under_1_kb_per_frame_without_a_key_list():
+    out = _run("examples/plain_torchrl_sac.py", "--iterations", "2", "--steps", "10")
+    lines = re.findall(r"^iteration (\d+): (\d+) bytes per frame \(the full rollout: (\d+)\), "
+                       r"buffer (\d+) frames.*loss_qvalue ([\d.]+)", out, re.M)  # fmt: skip
+    assert [int(i) for i, *_ in lines] == [0, 1]
+    for i, stored, full, buffered, loss in lines:
+        assert int(stored) <= 1024 < 10 * int(stored) < int(full)
+        assert int(buffered) == (int(i) + 1) * 4 * 10  # 4 scenes x 10 decisions per rollout
+        assert float(loss) > 0

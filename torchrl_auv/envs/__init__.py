@@ -7,13 +7,14 @@ state-action history the diffusion proposer reads), scripted experts and gymnasi
 
 from __future__ import annotations
 
-from torchrl_auv.envs.data_collection import DataCollectionEnv
+from torchrl_auv.envs.data_collection import SIM_KEY, DataCollectionEnv
 from torchrl_auv.envs.experts import ScriptedExpert
 from torchrl_auv.envs.gym import DataCollectionGymEnv, TrackingGymEnv, register_gymnasium_ids
 from torchrl_auv.envs.history import StateActionHistory, history_key_for
 from torchrl_auv.envs.tracking import AUVTrackingEnv
 
 __all__ = [
+    "SIM_KEY",
     "AUVTrackingEnv",
     "DataCollectionEnv",
     "DataCollectionGymEnv",

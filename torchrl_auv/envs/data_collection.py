@@ -28,7 +28,11 @@ from torchrl_auv.envs.vehicles import (
 from torchrl_auv.estimation import altimeter, asv_fixes, gnss_error_init
 from torchrl_auv.physics import ocean
 
-__all__ = ["AGENT_OBSERVATION_FEATURES", "VEHICLE_FEATURES", "DataCollectionEnv"]
+__all__ = ["AGENT_OBSERVATION_FEATURES", "SIM_KEY", "VEHICLE_FEATURES", "DataCollectionEnv"]
+
+#: where the env keeps its simulator state (true state, filters, ocean, sensor network, running
+#: sums): everything a learner does not need, excluded with one key
+SIM_KEY = "sim"
 
 #: vehicle features appended to the task features (:data:`torchrl_auv.iout.OBSERVATION_FEATURES`)
 VEHICLE_FEATURES = (
@@ -156,13 +160,19 @@ class DataCollectionEnv(EnvBase):
     others are ``truncated`` (their cost-to-go does not end with a peer's exit: they
     bootstrap); ``done`` is the scene's.
 
-    **Other keys.** ``("truth", "eta" | "nu" | "actuators")`` ``[*B, N, .]`` (the true state,
-    for metrics and plots; policies must not read it), ``("kf", "mean" | "cov" | "heading")``,
-    ``"setpoint"`` ``[*B, N, 3]``, ``"controller"``, ``"ocean"``, ``"asv"`` ``[*B, 3]``,
-    ``"asv_gnss_error"`` ``[*B, 2]``, ``("sensors", "altitude" | "altitude_valid" |
-    "current")``, ``"overridden"`` ``[*B, N]``, ``"cost_terms"``, ``"task"`` (sensor-network
-    state), ``"accumulators"``, ``"tracking"``, ``"localisation"``, ``"step_count"`` and
-    ``("metrics", name)`` ``[*B]``: ``sdr`` (Mbit delivered, the paper's "MBit/s"), ``ssn``,
+    **Other keys.** The simulator's own state lives under one key, ``"sim"`` (:data:`SIM_KEY`):
+    ``("sim", "truth", "eta" | "nu" | "actuators")`` ``[*B, N, .]`` (the true state, for
+    metrics and plots; policies must not read it), ``("sim", "kf", "mean" | "cov" |
+    "heading")``, ``("sim", "setpoint")`` ``[*B, N, 3]``, ``("sim", "controller")``,
+    ``("sim", "ocean")``, ``("sim", "asv")`` ``[*B, 3]``, ``("sim", "asv_gnss_error")``
+    ``[*B, 2]``, ``("sim", "sensors", "altitude" | "altitude_valid" | "current")``, ``("sim",
+    "task")`` (sensor-network state), ``("sim", "accumulators" | "tracking" |
+    "localisation")``: about 30 KB per frame that a learner does not need, so a replay buffer
+    stores ``rollout.exclude("sim", ("next", "sim"))`` (well under 1 KB per frame for two AUVs,
+    ``examples/plain_torchrl_sac.py``). Beside the observation, reward and done keys:
+    ``"overridden"`` ``[*B, N]`` (the station keeper set the AUV's setpoints),
+    ``"cost_terms"`` (the weighted cost terms, ``[*B, N]`` each), ``"step_count"`` ``[*B, 1]``
+    and ``("metrics", name)`` ``[*B]``: ``sdr`` (Mbit delivered, the paper's "MBit/s"), ``ssn``,
     ``services_inside`` (services that ended within the service radius), ``ec`` (W, 0 until an
     AUV has moved), ``ec_with_hover`` (W), ``shaft_power`` (W), ``collisions``,
     ``violations``, ``overflow`` (packets), ``heading_error_mean``/``_std`` (rad),
@@ -182,7 +192,8 @@ class DataCollectionEnv(EnvBase):
     any other keyword raises Python's usual ``TypeError: ... got an unexpected keyword
     argument '<name>'`` (which TorchRL's ``GymEnv`` relies on to drop ``frameskip``).
 
-    **Version history.** v1 (spec v2): termination only on divergence or 100 m out, derived
+    **Version history.** v2: the simulator state under ``"sim"`` (was 12 top-level keys).
+    v1 (spec v2): termination only on divergence or 100 m out, derived
     terminal cost, peers truncated; ``reward = -cost`` with the waiting data in the cost;
     station keeping replaces the loiter; re-service above 10 % fill; edges, altimeter and
     current estimate in the observation (37 features); real localisation errors; finite-depth
@@ -359,7 +370,7 @@ class DataCollectionEnv(EnvBase):
         )
         seabed = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
         sensors = self._sensors(sea_td, seabed - eta[..., 2], (*shape, n))
-        state = TensorDict(
+        sim = TensorDict(
             {
                 "truth": td["truth"],
                 "kf": td["kf"],
@@ -372,19 +383,25 @@ class DataCollectionEnv(EnvBase):
                 ),
                 "sensors": sensors,
                 "task": task,
-                "overridden": torch.zeros(*shape, n, dtype=torch.bool),
                 "accumulators": accumulators,
                 "tracking": tracking,
                 "localisation": self._localisation_init(shape),
+            },
+            batch_size=shape,
+        )
+        state = TensorDict(
+            {
+                SIM_KEY: sim,
+                "overridden": torch.zeros(*shape, n, dtype=torch.bool),
                 "cost_terms": TensorDict(
                     {k: torch.zeros(*shape, n) for k in iout.COST_TERMS}, batch_size=(*shape, n)
                 ),
                 "step_count": torch.zeros(*shape, 1, dtype=torch.int64),
+                "metrics": self._metrics(accumulators, tracking, sim["localisation"]),
             },
             batch_size=shape,
         )
-        state["metrics"] = self._metrics(accumulators, tracking, state["localisation"])
-        self._write_observation(state, state)
+        self._write_observation(sim, state)
         return state
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
@@ -491,7 +508,8 @@ class DataCollectionEnv(EnvBase):
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g, cfg = self.rng, self.config
-        td = tensordict.select(*self.state_spec.keys(True, True), strict=True)
+        state = tensordict.select(*self.state_spec.keys(True, True), strict=True)
+        td = state[SIM_KEY]
         shape = td.batch_size
         action = self._agent_action(tensordict)
         task = td["task"]
@@ -539,10 +557,10 @@ class DataCollectionEnv(EnvBase):
         cost = iout.with_termination(cost, ending, self.termination_cost)
         stability_end = self.cost_weights.stability_termination_cost()
         stability = iout.with_termination(iout.stability_cost(terms), ending, stability_end)
-        step_count = td["step_count"] + 1
+        step_count = state["step_count"] + 1
         terminated, truncated, done = iout.episode_flags(ending, step_count, self.max_steps)
 
-        out = TensorDict(
+        sim = TensorDict(
             {
                 "truth": vehicles["truth"],
                 "kf": vehicles["kf"],
@@ -556,6 +574,12 @@ class DataCollectionEnv(EnvBase):
                 "accumulators": accumulators,
                 "tracking": tracking,
                 "localisation": localisation,
+            },
+            batch_size=shape,
+        )
+        out = TensorDict(
+            {
+                SIM_KEY: sim,
                 "cost_terms": terms.apply(lambda value: value.to(torch.float32)),
                 "step_count": step_count,
                 "metrics": self._metrics(accumulators, tracking, localisation),
@@ -566,7 +590,7 @@ class DataCollectionEnv(EnvBase):
             },
             batch_size=shape,
         )
-        self._write_observation(out, out)
+        self._write_observation(sim, out)
         self._write_costs(out, cost, stability, ending, done)
         return out
 

@@ -292,7 +292,7 @@ class VehicleStack:
             # the filter's and the vehicle's constant tensors are cached on first use: fill
             # the caches before a compiled call (filling them while tracing would recompile)
             self.localiser._matrices(self.dt, dtype, device)
-            remus100.DEFAULT_PARAMS.tensors(dtype, device)
+            remus100.model_tensors(remus100.DEFAULT_PARAMS, dtype, device)
         run = self._compiled_steps() if self.compile else self._steps
         unroll = self.unroll if self.compile else steps
         for k in range(0, steps, unroll):

@@ -20,7 +20,8 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
     Args:
         rollout: an env rollout shaped ``[B, T]`` or ``[T]`` (reads ``("next", "truth",
             "eta")``, ``("next", "kf", "mean")``, ``("next", "setpoint")`` and, if present,
-            ``("next", "task", "nodes", ...)`` and ``("next", "asv")``).
+            ``("next", "task", "nodes", ...)`` and ``("next", "asv")``; under ``("next",
+            "sim")`` for the data-collection env).
         path: where to write the PNG.
         index: which batch element to draw.
 
@@ -39,6 +40,8 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
     import matplotlib.pyplot as plt
 
     nxt = rollout["next"]
+    if "sim" in nxt.keys():  # DataCollectionEnv keeps its simulator state under "sim"
+        nxt = nxt["sim"]
     if nxt.batch_dims == 2:
         nxt = nxt[index]
     eta = nxt["truth", "eta"].detach()

@@ -20,7 +20,7 @@ from tensordict import TensorDictBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from torchrl_auv import iout
-from torchrl_auv.envs import DataCollectionEnv, ScriptedExpert
+from torchrl_auv.envs import SIM_KEY, DataCollectionEnv, ScriptedExpert
 
 __all__ = [
     "POLICIES",
@@ -87,8 +87,9 @@ def episode_stats(
     metrics = at_end["metrics"]
     n = env.num_auvs
     decisions = (first + 1).double()
-    truth = rollout["next", "truth", "eta"][..., :3]
-    kf_error = torch.linalg.vector_norm(rollout["next", "kf", "mean"][..., :3] - truth, dim=-1)
+    sim = rollout["next", SIM_KEY]
+    truth = sim["truth", "eta"][..., :3]
+    kf_error = torch.linalg.vector_norm(sim["kf", "mean"][..., :3] - truth, dim=-1)
     kf_error = kf_error[mask[..., None].expand_as(kf_error) & kf_error.isfinite()]
     cost = rollout["next", "agents", "cost"][..., 0].double()  # [B, T, N]
     cost = torch.where(mask[..., None], cost, 0.0)
