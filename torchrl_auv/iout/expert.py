@@ -44,25 +44,20 @@ seabed under the AUV when that is given; at least ``min_depth_m``. Propeller: ``
 slowed to ``approach_rpm`` within ``approach_radius_m`` (horizontal) of the target. An AUV
 without a target keeps its heading and depth at ``idle_rpm``. The env turns setpoints into
 actions (depth change ``0.8 a0`` m, heading change ``0.15 a1`` rad, rpm ``380 (a2 + 3)``).
+
+Each heading rule above is one named function of :mod:`~torchrl_auv.iout.expert_rules`,
+applied in the order of :data:`~torchrl_auv.iout.expert_rules.HEADING_RULES`.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import torch
 
-from torchrl_auv.iout.approach import approach_direction, unit
-from torchrl_auv.iout.dubins import WORDS, dubins_lengths, dubins_points
+from torchrl_auv.iout.expert_rules import HEADING_RULES, ExpertView, turn_clear_of_edges
 
 __all__ = ["ExpertConfig", "expert_setpoints", "other_positions"]
-
-#: The model's steady surge per rpm (m/s): 2.5536 m/s at 1525 rpm.
-_MPS_PER_RPM = 2.5536 / 1525.0
-
-#: The edges' inward unit normals (north, east), in the order of ``edges``: x, X - x, y, Y - y.
-INWARD_NORMALS = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))
 
 
 @dataclass(frozen=True)
@@ -221,128 +216,6 @@ def other_positions(auv_positions: torch.Tensor) -> torch.Tensor:
     return auv_positions[..., others, :]
 
 
-def _edges_of(edges: torch.Tensor, offset: torch.Tensor) -> torch.Tensor:
-    """Distances to the edges (``[*B, N, 4]``, as ``edges``) of the point ``offset``
-    (``[*B, N, 2]``, m) away from the AUV whose distances are ``edges``."""
-    x, y = offset[..., 0], offset[..., 1]
-    return edges.to(offset.dtype) + torch.stack((x, -x, y, -y), -1)
-
-
-def _arrival_direction(
-    goal_dir: torch.Tensor, current: torch.Tensor | None, cfg: ExpertConfig
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """``(direction, use)``: upstream where the current estimate exceeds the threshold."""
-    if current is None:
-        return goal_dir, torch.zeros_like(goal_dir[..., :1], dtype=torch.bool)
-    current = current.to(goal_dir.dtype)
-    flowing = torch.linalg.vector_norm(current, dim=-1, keepdim=True) > cfg.current_threshold_mps
-    return torch.where(flowing, -unit(current), goal_dir), flowing
-
-
-def _turn_clear_of_edges(
-    heading: torch.Tensor, psi: torch.Tensor, edges: torch.Tensor, radius: torch.Tensor
-) -> torch.Tensor:
-    """``heading`` (rad), or a setpoint 90 deg the other way round from ``psi``: a turn of
-    more than 90 deg goes the way whose bow sweeps the outward normals of the edges nearer
-    than ``radius`` (``[*B, N, 1]``, m) least closely (a U-turn carries the vehicle a turning
-    diameter sideways: better toward a far edge than a near one)."""
-    turn = torch.atan2(torch.sin(heading - psi), torch.cos(heading - psi))
-    outward = psi.new_tensor([math.pi, 0.0, -0.5 * math.pi, 0.5 * math.pi])  # x, X-x, y, Y-y
-    rel = outward - psi[..., None]
-    rel = torch.atan2(torch.sin(rel), torch.cos(rel))
-    swept = (rel * turn[..., None] >= 0) & (rel.abs() <= turn.abs()[..., None])
-    closeness = (radius - edges.to(psi.dtype)).clamp_min(0.0)  # 0 beyond the radius
-    short = torch.where(swept, closeness, 0.0).amax(-1)
-    long = torch.where(swept, 0.0, closeness).amax(-1)
-    long_way = (turn.abs() > 0.5 * math.pi) & (long < short)
-    other_way = psi - torch.sign(turn) * 0.5 * math.pi
-    other_way = torch.atan2(torch.sin(other_way), torch.cos(other_way))
-    return torch.where(long_way, other_way, heading)
-
-
-def _planned_direction(
-    to_node: torch.Tensor,
-    psi: torch.Tensor,
-    arrival: torch.Tensor,
-    current: torch.Tensor,
-    edges: torch.Tensor | None,
-    cfg: ExpertConfig,
-) -> torch.Tensor:
-    r"""Unit heading along the cheapest Dubins path (:mod:`~torchrl_auv.iout.dubins`) to a pose
-    on the approach line: ``plan_offsets_m`` behind the node, heading along ``arrival``.
-
-    Planned in the water frame, in which a node fixed on the ground drifts against the
-    current: a path of length :math:`L` (m) takes :math:`L / V` s at the cruise speed
-    :math:`V`, so its goal is moved by :math:`-\hat c L / V` and its points are brought back
-    to the ground by :math:`+\hat c\,\ell / V`. Cost: the path's length and the final
-    straight to the node, plus penalties for coming within ``plan_clear_m`` of the node and
-    within ``plan_margin_m`` of an edge. All ``[*B, N]``-batched; ``to_node`` is the node
-    relative to the vehicle (m), ``psi`` its heading (rad), ``arrival`` a unit vector.
-    """
-    r = cfg.plan_radius_m
-    speed = cfg.cruise_rpm * _MPS_PER_RPM
-    drift = current.to(to_node.dtype) / speed  # ground metres per metre through the water
-    start = torch.zeros_like(to_node)
-    goal_heading = torch.atan2(arrival[..., 1], arrival[..., 0])
-    frac = torch.linspace(0.0, 1.0, cfg.plan_samples, dtype=to_node.dtype, device=to_node.device)
-    ahead = torch.full((*psi.shape, len(WORDS), 1), cfg.plan_lookahead_m, dtype=to_node.dtype,
-                       device=to_node.device)  # fmt: skip
-    costs, headings = [], []
-    for offset in cfg.plan_offsets_m:
-        goal = to_node - offset * arrival
-        lengths, _ = dubins_lengths(start, psi, goal, goal_heading, r)
-        shortest = lengths.sum(-1).amin(-1, keepdim=True)
-        goal = goal - drift * torch.where(shortest.isfinite(), shortest, 0.0)
-        lengths, straight = dubins_lengths(start, psi, goal, goal_heading, r)
-        total = lengths.sum(-1)  # [*B, N, 4]
-        ok = total.isfinite()
-        lengths = torch.where(ok[..., None], lengths, 0.0)
-        span = torch.where(ok, total, 0.0)
-        along = span[..., None] * frac
-        points, _ = dubins_points(start, psi, lengths, straight, r, along)
-        points = points + along[..., None] * drift[..., None, None, :]  # back on the ground
-        step = span / cfg.plan_samples
-        gap = torch.linalg.vector_norm(points - to_node[..., None, None, :], dim=-1)
-        cost = (
-            total
-            + offset
-            + cfg.plan_node_weight * step * (cfg.plan_clear_m - gap).clamp_min(0.0).sum(-1)
-        )
-        if edges is not None:
-            room = _edges_of(edges[..., None, None, :], points)  # [*B, N, 4, K, 4]
-            short = (cfg.plan_margin_m - room).clamp_min(0.0).amax(-1).sum(-1)
-            cost = cost + cfg.plan_area_weight * step * short
-        costs.append(torch.where(ok, cost, math.inf))
-        headings.append(dubins_points(start, psi, lengths, straight, r, ahead)[1][..., 0])
-    best = torch.cat(costs, -1).argmin(-1, keepdim=True)
-    heading = torch.cat(headings, -1).gather(-1, best)[..., 0]
-    return torch.stack((torch.cos(heading), torch.sin(heading)), -1)
-
-
-def _edge_arrival(
-    goal_dir: torch.Tensor,
-    to_target: torch.Tensor,
-    edges: torch.Tensor,
-    inward: torch.Tensor,
-    bow: torch.Tensor,
-    cfg: ExpertConfig,
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """``(direction, use)``: where the point steered for lies within ``edge_arrival_m`` of an
-    edge and the way to it heads out across that edge, the approach that arrives along the
-    edge instead (the outward part of the arrival dropped; toward the centre in a corner)."""
-    out = -goal_dir.new_tensor(INWARD_NORMALS)
-    outward = (goal_dir[..., None, :] * out).sum(-1).clamp_min(0.0)  # [*B, N, 4]
-    outward = torch.where(_edges_of(edges, to_target) < cfg.edge_arrival_m, outward, 0.0)
-    tangential = goal_dir - (outward[..., None] * out).sum(-2)
-    length = torch.linalg.vector_norm(tangential, dim=-1, keepdim=True)
-    arrival = torch.where(length > 0.1, unit(tangential), inward.to(goal_dir.dtype))
-    direction, _ = approach_direction(-to_target, arrival, offset_m=cfg.edge_offset_m,
-                                      avoid_radius_m=cfg.avoid_radius_m, prefer=inward,
-                                      cone_deg=cfg.approach_cone_deg, keep_out_m=cfg.keep_out_m,
-                                      bow=bow)  # fmt: skip
-    return direction, outward.amax(-1, keepdim=True) > 0.2
-
-
 def expert_setpoints(
     auv_pose: torch.Tensor,
     target_position: torch.Tensor,
@@ -385,82 +258,20 @@ def expert_setpoints(
         True
     """
     cfg = ExpertConfig() if config is None else config
-    position, psi = auv_pose[..., :3], auv_pose[..., 5]
-    valid = (
-        torch.ones(psi.shape, dtype=torch.bool, device=psi.device)
-        if has_target is None
-        else has_target
-    )
-    to_target = target_position[..., :2] - position[..., :2]
-    if edges is not None:  # steer for a point up to 10 m inside a node near an edge
-        shift = cfg.edge_clearance_m - _edges_of(edges, to_target)
-        shift = shift.clamp(0.0, cfg.max_inward_shift_m)
-        to_target = to_target + (shift[..., 0::2] - shift[..., 1::2])
-    heading_dir = torch.stack((torch.cos(psi), torch.sin(psi)), -1)
-    norm = torch.linalg.vector_norm(to_target, dim=-1, keepdim=True)
-    goal_dir = torch.where(norm > 1e-6, to_target / norm.clamp_min(1e-6), heading_dir)
-    arrival_dir, flowing = _arrival_direction(goal_dir, current, cfg)
-    # the direction to the area's centre, from the distances to its edges
-    inward = None if edges is None else unit(0.5 * (edges[..., 1::2] - edges[..., 0::2]))
-    approach, in_cone = approach_direction(-to_target, arrival_dir,
-                                           offset_m=cfg.downstream_offset_m,
-                                           avoid_radius_m=cfg.avoid_radius_m, prefer=inward,
-                                           cone_deg=cfg.approach_cone_deg,
-                                           keep_out_m=cfg.keep_out_m, bow=heading_dir)  # fmt: skip
-    planning = current is not None and cfg.plan_radius_m > 0 and bool(flowing.any())
-    if planning:  # outside the final cone: plan the way
-        planned = _planned_direction(to_target, psi, arrival_dir, current, edges, cfg)
-        approach = torch.where(in_cone, approach, planned)
-    goal_dir = torch.where(flowing, approach, goal_dir)
-    along_edge = torch.zeros_like(flowing)
-    if edges is not None:  # still water, steered point near an edge: arrive along the edge
-        edge_approach, along_edge = _edge_arrival(goal_dir, to_target, edges, inward,
-                                                  heading_dir, cfg)  # fmt: skip
-        along_edge = along_edge & ~flowing
-        goal_dir = torch.where(along_edge, edge_approach, goal_dir)
-    # still water: a target inside the turning circle on its side is orbited, not reached;
-    # run straight on until it is outside (|d|^2 < 2 R |lateral| is inside)
-    lateral = (to_target * torch.stack((-heading_dir[..., 1], heading_dir[..., 0]), -1)).sum(-1)
-    orbit = norm[..., 0].square() < 2.0 * cfg.turn_radius_m * lateral.abs()
-    goal_dir = torch.where(orbit[..., None] & ~flowing & ~along_edge, heading_dir, goal_dir)
-    if edges is not None:  # too steep to reach the node's depth in time: make room inward
-        wanted_depth = target_position[..., 2] - cfg.standoff_m
-        climb = (wanted_depth - position[..., 2]).abs()
-        steep = (norm[..., 0] < cfg.glide_ratio * climb) & (climb > cfg.glide_min_m)
-        goal_dir = torch.where(steep[..., None], inward.to(goal_dir.dtype), goal_dir)
-    goal_dir = torch.where(valid[..., None], goal_dir, heading_dir)
+    view = ExpertView.of(auv_pose, target_position, cfg, others=other_auv_positions,
+                         has_target=has_target, current=current, edges=edges)  # fmt: skip
+    direction = view.goal_dir
+    for rule in HEADING_RULES:
+        direction = rule(direction, view, cfg)
+    heading = turn_clear_of_edges(torch.atan2(direction[..., 1], direction[..., 0]), view, cfg)
 
-    away = position[..., None, :2] - other_auv_positions[..., :2]  # [*B, N, K, 2]
-    gap = torch.linalg.vector_norm(away, dim=-1, keepdim=True)
-    strength = ((cfg.repulsion_radius_m - gap) / cfg.repulsion_radius_m).clamp_min(0.0)
-    push = (cfg.repulsion_gain * strength * away / gap.clamp_min(1e-6)).sum(-2)
-    direction = goal_dir + push
-    if edges is not None:  # near an edge, never head out: keep only the along-edge part
-        # in a current the approach from downstream comes first: a narrower band
-        radius = torch.where(flowing, cfg.edge_radius_current_m, cfg.edge_radius_m)
-        radius = radius.to(direction.dtype)
-        normals = direction.new_tensor(INWARD_NORMALS)
-        goal_edges = _edges_of(edges, to_target)
-        for k in range(4):
-            normal = normals[k]
-            distance = edges[..., k : k + 1].to(direction.dtype)
-            outward = (direction * normal).sum(-1, keepdim=True) < 0
-            # heading out is fine while the point steered for lies farther out still
-            needed = goal_edges[..., k : k + 1] < distance
-            along = direction - (direction * normal).sum(-1, keepdim=True) * normal
-            along = along + cfg.edge_gain * normal * ((radius - distance) / radius).clamp_min(0)
-            direction = torch.where((distance < radius) & outward & ~needed, along, direction)
-    heading = torch.atan2(direction[..., 1], direction[..., 0])
-    if edges is not None:
-        heading = _turn_clear_of_edges(heading, psi, edges, radius)
-
-    depth = target_position[..., 2] - cfg.standoff_m
+    # depth: standoff above the node, and above the seabed under the AUV when given
+    depth = view.target_depth - cfg.standoff_m
     if seabed_below is not None:
         depth = torch.minimum(depth, seabed_below - cfg.standoff_m)
-    depth = torch.where(valid, depth.clamp_min(cfg.min_depth_m), position[..., 2])
-    near = norm.squeeze(-1) < cfg.approach_radius_m
-    rpm = torch.where(
-        near, torch.full_like(psi, cfg.approach_rpm), torch.full_like(psi, cfg.cruise_rpm)
-    )
-    rpm = torch.where(valid, rpm, torch.full_like(psi, cfg.idle_rpm))
+    depth = torch.where(view.valid, depth.clamp_min(cfg.min_depth_m), view.position[..., 2])
+    # propeller: cruise, slower near the target, idle without one
+    near = view.distance.squeeze(-1) < cfg.approach_radius_m
+    rpm = torch.where(near, cfg.approach_rpm, cfg.cruise_rpm).to(view.psi.dtype)
+    rpm = torch.where(view.valid, rpm, torch.full_like(view.psi, cfg.idle_rpm))
     return depth, heading, rpm
