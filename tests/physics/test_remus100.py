@@ -13,16 +13,13 @@ import pytest
 import torch
 
 from torchrl_auv.physics import remus100
-from torchrl_auv.physics.remus100 import (
+from torchrl_auv.physics.remus100 import Remus100Params, dynamics, propeller_forces, step
+from torchrl_auv.physics.remus100.replay import (
     ACTUATOR_COLUMNS,
     COMMAND_COLUMNS,
     CURRENT_COLUMNS,
     ETA_COLUMNS,
     NU_COLUMNS,
-    Remus100Params,
-    dynamics,
-    propeller_forces,
-    step,
 )
 
 # The reference trajectories ship with the tests (tests/data/remus100/README.md);

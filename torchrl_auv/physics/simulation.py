@@ -15,6 +15,8 @@ import torch
 from tensordict import TensorDict
 
 from torchrl_auv.physics import ocean, remus100
+from torchrl_auv.physics.ocean.fields import _check_position
+from torchrl_auv.physics.remus100.dynamics import _check_step_inputs
 
 __all__ = ["compiled_step_in_ocean", "step_in_ocean"]
 
@@ -74,13 +76,13 @@ def compiled_step_in_ocean(
 
     The first call per input shape compiles (a few seconds on a 2-core CPU).
     """
-    remus100._check_step_inputs(eta, nu, actuators, command, None, dt)
+    _check_step_inputs(eta, nu, actuators, command, None, dt)
     if eta.shape[:-1] != ocean_state.batch_size:
         raise ValueError(
             f"ocean_state batch {tuple(ocean_state.batch_size)} must equal eta's "
             f"{tuple(eta.shape[:-1])}"
         )
-    ocean._check_position(ocean_state, eta[..., :3], water_depth)
+    _check_position(ocean_state, eta[..., :3], water_depth)
     fn = _COMPILED.get("fn")
     if fn is None:
         fn = _COMPILED["fn"] = torch.compile(_compiled_body, fullgraph=True, dynamic=False)
