@@ -2,10 +2,12 @@
 
 :func:`make_checkpoint` registers what a training run must restore (modules, optimisers, the
 run's counters, the global RNG states) with TorchRL's :class:`~torchrl.checkpoint.Checkpoint`;
-:class:`~torchrl.checkpoint.CheckpointRotation` keeps the newest ``keep_last`` under
-``run_dir/checkpoints``. A run killed at any moment (even SIGKILL) resumes from the newest
-complete checkpoint: TorchRL publishes a checkpoint by renaming it into place, so a save cut
-short leaves no partial entry.
+:class:`~torchrl_auv.training.verified_rotation.VerifiedRotation` (TorchRL's rotation with a
+size and SHA-256 per file) keeps the newest ``keep_last`` under ``run_dir/checkpoints``. A run
+killed at any moment (even SIGKILL) resumes from the newest complete checkpoint: a checkpoint is
+published by renaming it into place, so a save cut short leaves no partial entry; one damaged
+afterwards is passed over with a warning naming it, and rotation never deletes the newest
+intact one.
 
 Examples:
     >>> import tempfile, torch
@@ -22,10 +24,13 @@ Examples:
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
-from torchrl.checkpoint import Checkpoint, CheckpointRotation, GlobalRNGState
+from torchrl.checkpoint import Checkpoint, CheckpointError, GlobalRNGState
+
+from torchrl_auv.training.verified_rotation import VerifiedRotation, checkpoint_problems
 
 __all__ = ["ProgressState", "SpecState", "make_checkpoint", "resume_latest"]
 
@@ -56,7 +61,7 @@ def make_checkpoint(
     modules: Mapping[str, object],
     progress,
     keep_last: int = 2,
-) -> tuple[Checkpoint, CheckpointRotation]:
+) -> tuple[Checkpoint, VerifiedRotation]:
     """A checkpoint of ``modules`` (anything with ``state_dict``: networks, losses with their
     targets and dual variables, optimisers, replay buffers), the ``progress`` counters (a dict
     of numbers, updated in place on load) and the global RNG states (python, numpy, torch).
@@ -65,17 +70,39 @@ def make_checkpoint(
         ``(checkpoint, rotation)``; save with ``rotation.save(checkpoint, step=frames)``.
     """
     checkpoint = Checkpoint(**modules, progress=ProgressState(progress), rng=GlobalRNGState())
-    return checkpoint, CheckpointRotation(Path(run_dir) / "checkpoints", keep_last=keep_last)
+    return checkpoint, VerifiedRotation(Path(run_dir) / "checkpoints", keep_last=keep_last)
 
 
 def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress) -> tuple[int, dict]:
-    """Load the newest checkpoint under ``run_dir/checkpoints`` into ``checkpoint``'s live
-    components. Returns the frames it had reached and its plain (JSON) values, e.g. the
-    stored ``config`` (``(0, {})`` and nothing loaded when there is none)."""
-    latest = CheckpointRotation(Path(run_dir) / "checkpoints", keep_last=1).latest()
-    if latest is None:
+    """Load the newest intact checkpoint under ``run_dir/checkpoints`` into ``checkpoint``'s
+    live components (a newer damaged one is passed over with a warning naming its path and
+    problems). Returns the frames it had reached and its plain (JSON) values, e.g. the stored
+    ``config`` (``(0, {})`` and nothing loaded when there is none).
+
+    Raises:
+        CheckpointError: checkpoints exist but none is intact (each path and problem named).
+    """
+    rotation = VerifiedRotation(Path(run_dir) / "checkpoints", keep_last=1)
+    intact, damaged = rotation.newest_intact()
+    for path, problems in damaged:
+        warnings.warn(f"checkpoint {path} is damaged and was not loaded: {'; '.join(problems)}",
+                      stacklevel=2)  # fmt: skip
+    if intact is None:
+        if damaged:
+            raise CheckpointError(
+                f"no intact checkpoint under {rotation.directory}: "
+                + " | ".join(f"{path}: {'; '.join(problems)}" for path, problems in damaged)
+            )
         return 0, {}
-    result = checkpoint.load(latest)
+    if problems := checkpoint_problems(intact):
+        warnings.warn(f"checkpoint {intact} cannot be verified ({'; '.join(problems)}); "
+                      "loading it unverified", stacklevel=2)  # fmt: skip
+    elif damaged:
+        warnings.warn(f"resuming from {intact}, the newest intact checkpoint", stacklevel=2)
+    try:
+        result = checkpoint.load(intact)
+    except Exception as error:  # a legacy checkpoint without checksums may still be damaged
+        raise CheckpointError(f"checkpoint {intact} could not be loaded: {error}") from error
     frames = progress.frames if dataclasses.is_dataclass(progress) else progress.get("frames", 0)
     return int(frames), dict(result.values)
 

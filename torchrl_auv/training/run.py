@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
-from torchrl.checkpoint import Checkpoint, CheckpointRotation
+from torchrl.checkpoint import Checkpoint
 
 from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
 from torchrl_auv.training.config import check_config, resolve_config
@@ -45,6 +45,7 @@ from torchrl_auv.training.loggers import close_logger, log_metrics, logger_from_
 from torchrl_auv.training.seeding import configure_threads, seed_everything
 from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summary
 from torchrl_auv.training.tracking import RunTracker
+from torchrl_auv.training.verified_rotation import VerifiedRotation
 
 __all__ = ["Progress", "Run", "finish_run", "prepare_resume", "start_run"]
 
@@ -80,7 +81,7 @@ def start_run(cfg: DictConfig) -> Path:
 
 def prepare_resume(
     cfg: DictConfig, run_dir: Path, modules: dict, progress, buffer=None
-) -> tuple[Checkpoint, CheckpointRotation, int]:
+) -> tuple[Checkpoint, VerifiedRotation, int]:
     """The run's checkpoint: ``modules``, the ``progress`` counters, the RNG states, the
     resolved config (JSON) and, with ``cfg.checkpoint.replay_buffer``, the replay buffer. With
     ``cfg.resume`` the newest checkpoint is loaded into them; a warning names the config groups
@@ -150,7 +151,7 @@ class Run:
         self.logger = logger_from_config(cfg, self.dir)
         self.progress = Progress()
         self.checkpoint: Checkpoint | None = None
-        self.rotation: CheckpointRotation | None = None
+        self.rotation: VerifiedRotation | None = None
         self.tracker: RunTracker | None = None
 
     def restore(self, modules: Mapping[str, object], buffer=None) -> int | None:
