@@ -10,7 +10,13 @@ import torch
 from torchrl.envs import TransformedEnv
 from torchrl.envs.utils import check_env_specs
 
-from torchrl_auv.envs import SIM_KEY, DataCollectionEnv, ScriptedExpert, StateActionHistory
+from torchrl_auv.envs import (
+    SIM_KEY,
+    AUVTrackingEnv,
+    DataCollectionEnv,
+    ScriptedExpert,
+    StateActionHistory,
+)
 from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES
 
 METRICS = (
@@ -509,3 +515,77 @@ def test_the_ocean_is_as_deep_as_the_scene_mean_seabed():
     )
     residual = 9.81 * k * torch.tanh(k * depth.double()[:, None]) - omega**2
     assert residual.abs().max().item() < 1e-5  # float32 state
+
+
+@pytest.mark.parametrize("batch_size", [[-1], [0], 4, "4", [2.0]])
+def test_a_bad_batch_size_is_an_error_naming_it(batch_size):
+    with pytest.raises(ValueError, match=r"batch_size must be a list of ints >= 1"):
+        DataCollectionEnv(batch_size=batch_size, num_sensors=5)
+    with pytest.raises(ValueError, match=r"batch_size must be a list of ints >= 1"):
+        AUVTrackingEnv(batch_size=batch_size)
+
+
+@pytest.mark.parametrize("flatten_agents", [False, True])
+@pytest.mark.parametrize(
+    ("shape", "expected"),
+    [((2, 2, 4), r"\[2, 2, 3\]"), ((2, 2, 2), r"\[2, 2, 3\]"), ((2, 7), r"\[2, 6\]")],
+)
+def test_an_action_of_the_wrong_shape_is_an_error_naming_the_expected_shape(
+    flatten_agents, shape, expected
+):
+    env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5, flatten_agents=flatten_agents)
+    if flatten_agents != (len(shape) == 2):
+        pytest.skip("a shape of the other layout")
+    td = env.reset()
+    td[env.agent_action_key] = torch.zeros(shape)
+    with pytest.raises(ValueError, match=rf"action.* must have shape {expected}"):
+        env.step(td)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf")])
+def test_a_non_finite_action_is_an_error_not_a_diverged_episode(bad):
+    env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5)
+    td = env.reset()
+    action = torch.zeros(2, 2, 3)
+    action[1, 0, 2] = bad
+    td["agents", "action"] = action
+    with pytest.raises(ValueError, match="1 non-finite entries"):
+        env.step(td)
+    tracking = AUVTrackingEnv(batch_size=[2], seed=0)
+    td = tracking.reset()
+    td["action"] = torch.full((2, 3), bad)
+    with pytest.raises(ValueError, match="6 non-finite entries"):
+        tracking.step(td)
+
+
+def test_an_action_outside_its_bounds_is_clipped_as_the_card_says():
+    env = DataCollectionEnv(batch_size=[1], seed=0, num_sensors=5, num_auvs=1)
+    td = env.reset()
+    outs = []
+    for value in (1.0, 7.0):
+        td["agents", "action"] = torch.full((1, 1, 3), value)
+        outs.append(env.step(td.clone())["next", "sim", "setpoint"])
+    torch.testing.assert_close(outs[0], outs[1])
+
+
+@pytest.mark.parametrize("flatten_agents", [False, True])
+def test_reward_key_is_the_reward_and_scaling_every_reward_key_keeps_cost_and_reward_one(
+    flatten_agents,
+):
+    from torchrl.envs import RewardScaling, TransformedEnv
+
+    def make():
+        return DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5,
+                                 flatten_agents=flatten_agents)  # fmt: skip
+
+    env = make()
+    assert env.reward_key == ("reward" if flatten_agents else ("agents", "reward"))
+    scaled = TransformedEnv(make(), RewardScaling(0.0, 0.1, in_keys=env.reward_keys))
+    torch.manual_seed(0)  # the same random actions in both
+    plain = env.rollout(3)
+    torch.manual_seed(0)
+    small = scaled.rollout(3)
+    for key in env.reward_keys:
+        torch.testing.assert_close(small["next", key], 0.1 * plain["next", key])
+    cost = "cost" if flatten_agents else ("agents", "cost")
+    torch.testing.assert_close(small["next", env.reward_key], -small["next", cost])

@@ -17,7 +17,12 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from torchrl_auv import iout
-from torchrl_auv.envs.specs import controller_from_name, unbounded_spec_like
+from torchrl_auv.envs.specs import (
+    checked_action,
+    checked_batch_size,
+    controller_from_name,
+    unbounded_spec_like,
+)
 from torchrl_auv.envs.tracking import DEPTH_STEP, HEADING_STEP, RPM_SCALE
 from torchrl_auv.envs.vehicles import (
     TRACKING_SUMS,
@@ -102,6 +107,10 @@ class DataCollectionEnv(EnvBase):
     2     propeller speed                 ``n_sp = 380 (a2 + 3)`` rpm (760-1520)
     ====  ==============================  ===================================================
 
+    Values outside [-1, 1] are clipped to it (the spec's bounds, as a policy's squashing would);
+    a NaN or infinite entry, or an action of another shape, is a ``ValueError`` naming the key
+    and the expected shape (a NaN used to end the episode as "diverged" without a word).
+
     **Observation** ``("agents", "observation")`` ``[*B, N, 37]`` float32 (``"observation"``
     ``[*B, 37 N]`` flat), computed from the Kalman estimate and the vehicle's own sensors, never
     the true pose. Entries 0-22 are the task features of :mod:`torchrl_auv.iout.observation`
@@ -136,7 +145,8 @@ class DataCollectionEnv(EnvBase):
     w_o = 0.5`, so :math:`0 \le c_j \le c_{max} = 13.45` for two AUVs; ``termination_cost``
     :math:`c_{term} = N c_{max} / (1 - 0.99) = 2690` by default (ending an episode is never
     cheaper than continuing it, for any discount up to 0.99). ``reward = -cost`` exactly (one
-    learning signal for every framework). ``"cost_terms"`` holds the weighted terms. Flat: the
+    learning signal for every framework). ``"cost_terms"`` holds the weighted terms.
+    ``env.reward_key`` is the reward; rescale every reward key together (``reward_key``). Flat: the
     sums over AUVs, ``[*B, 1]``.
 
     **Stability cost** ``("agents", "stability_cost")`` ``[*B, N, 1]`` (flat: the sum,
@@ -250,7 +260,7 @@ class DataCollectionEnv(EnvBase):
             raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
         if termination_cost is not None and not termination_cost >= 0:
             raise ValueError(f"termination_cost must be None or >= 0, got {termination_cost}")
-        super().__init__(batch_size=torch.Size(batch_size), device=device)
+        super().__init__(batch_size=checked_batch_size(batch_size), device=device)
         self.num_auvs = num_auvs
         self.flatten_agents = bool(flatten_agents)
         self.cost_weights = iout.CostWeights() if cost_weights is None else cost_weights
@@ -290,6 +300,14 @@ class DataCollectionEnv(EnvBase):
     def agent_action_key(self) -> tuple[str, ...] | str:
         """Where policies write: ``("agents", "action")``, or ``"action"`` if flat."""
         return "action" if self.flatten_agents else ("agents", "action")
+
+    @property
+    def reward_key(self) -> tuple[str, ...] | str:
+        """The reward, ``("agents", "reward")`` (flat: ``"reward"``). ``cost`` and
+        ``stability_cost`` are further reward keys (``reward_keys``): to rescale, scale all
+        three together, e.g. ``RewardScaling(0.0, s, in_keys=env.reward_keys)`` (the Lyapunov
+        loss reads ``cost``; TorchRL's default ``in_keys`` would scale ``reward`` alone)."""
+        return "reward" if self.flatten_agents else ("agents", "reward")
 
     # -- specs ---------------------------------------------------------------------------
     def _make_specs(self) -> None:
@@ -471,11 +489,11 @@ class DataCollectionEnv(EnvBase):
             out["agents"] = TensorDict({"observation": obs}, batch_size=obs.shape[:-1])
 
     def _agent_action(self, tensordict: TensorDictBase) -> torch.Tensor:
-        if self.flatten_agents:
-            action = tensordict["action"].unflatten(-1, (self.num_auvs, 3))
-        else:
-            action = tensordict["agents", "action"]
-        return action.clamp(-1.0, 1.0)
+        """The action ``[*B, N, 3]``, checked (shape, finite) and clipped to [-1, 1]."""
+        n, key = self.num_auvs, self.agent_action_key
+        shape = (*self.batch_size, 3 * n) if self.flatten_agents else (*self.batch_size, n, 3)
+        action = checked_action(tensordict[key], shape, key)
+        return action.unflatten(-1, (n, 3)) if self.flatten_agents else action
 
     # -- step ----------------------------------------------------------------------------
     def _setpoints(

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
+import torch
 from tensordict import TensorDictBase
 from torchrl.data import Composite, Unbounded
 
 from torchrl_auv.control import Controller, available_controllers, make_controller
 
-__all__ = ["controller_from_name", "unbounded_spec_like"]
+__all__ = ["checked_action", "checked_batch_size", "controller_from_name", "unbounded_spec_like"]
 
 
 def unbounded_spec_like(td: TensorDictBase) -> Composite:
@@ -45,3 +48,44 @@ def controller_from_name(controller: str) -> Controller:
     except ValueError:
         names = ", ".join(repr(n) for n in available_controllers())
         raise ValueError(f"controller must be one of {names}, got {controller!r}") from None
+
+
+def checked_batch_size(batch_size: object) -> torch.Size:
+    """``batch_size`` as a ``torch.Size`` of scene dims, each an int >= 1 (``[]`` for one
+    unbatched scene); anything else is a ValueError naming the argument.
+
+    >>> checked_batch_size([4])
+    torch.Size([4])
+    >>> checked_batch_size(4)
+    Traceback (most recent call last):
+        ...
+    ValueError: batch_size must be a list of ints >= 1 (e.g. [4] for 4 scenes, [] for one), got 4
+    """
+    ok = isinstance(batch_size, (Sequence, torch.Size)) and not isinstance(batch_size, str)
+    ok = ok and all(isinstance(d, int) and not isinstance(d, bool) and d >= 1 for d in batch_size)
+    if not ok:
+        raise ValueError(f"batch_size must be a list of ints >= 1 (e.g. [4] for 4 scenes, [] for "
+                         f"one), got {batch_size!r}")  # fmt: skip
+    return torch.Size(batch_size)
+
+
+def checked_action(action: torch.Tensor, shape: Sequence[int], key: object) -> torch.Tensor:
+    """``action`` if it has ``shape`` and only finite values, clipped to [-1, 1] (the action
+    spec's bounds: values outside are clipped, as the env card says); a wrong shape or a
+    NaN/inf entry is a ValueError naming ``key`` and the expected shape.
+
+    >>> checked_action(torch.tensor([0.5, 2.0]), (2,), "action").tolist()
+    [0.5, 1.0]
+    >>> checked_action(torch.zeros(3), (2,), "action")
+    Traceback (most recent call last):
+        ...
+    ValueError: action must have shape [2] (batch and action dims), got [3]
+    """
+    if tuple(action.shape) != tuple(shape):
+        raise ValueError(f"{key} must have shape {list(shape)} (batch and action dims), "
+                         f"got {list(action.shape)}")  # fmt: skip
+    finite = torch.isfinite(action)
+    if not bool(finite.all()):
+        raise ValueError(f"{key} has {int((~finite).sum())} non-finite entries (NaN or inf); "
+                         "actions must be finite, in [-1, 1]")  # fmt: skip
+    return action.clamp(-1.0, 1.0)

@@ -16,7 +16,12 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from torchrl_auv.control import wrap_angle
-from torchrl_auv.envs.specs import controller_from_name, unbounded_spec_like
+from torchrl_auv.envs.specs import (
+    checked_action,
+    checked_batch_size,
+    controller_from_name,
+    unbounded_spec_like,
+)
 from torchrl_auv.envs.vehicles import (
     TRACKING_SUMS,
     VehicleStack,
@@ -55,6 +60,9 @@ class AUVTrackingEnv(EnvBase):
     1     heading setpoint change         ``psi_sp += 0.15 a1`` rad
     2     propeller speed                 ``n_sp = 380 (a2 + 3)`` rpm (760-1520)
     ====  ==============================  ===================================
+
+    Values outside [-1, 1] are clipped to it; a NaN or infinite entry, or an action of another
+    shape, is a ``ValueError`` naming ``action`` and the expected shape.
 
     **Observation** ``"observation"`` ``[*B, 16]`` (float32), from the Kalman-filter estimate
     (hats) and the AHRS, never the true pose: ``(z_ref - z^)/10``, ``sin``/``cos`` of
@@ -122,7 +130,7 @@ class AUVTrackingEnv(EnvBase):
             raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
         if not (math.isfinite(segment_seconds) and segment_seconds > 0):
             raise ValueError(f"segment_seconds must be finite and > 0, got {segment_seconds}")
-        super().__init__(batch_size=torch.Size(batch_size), device=device)
+        super().__init__(batch_size=checked_batch_size(batch_size), device=device)
         self.dt = 0.05
         self.decision_steps = 20
         self.max_steps = max_steps
@@ -236,7 +244,7 @@ class AUVTrackingEnv(EnvBase):
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g = self.rng
         td = tensordict.select(*self.state_spec.keys(True, True), strict=True).clone(False)
-        action = tensordict["action"].clamp(-1.0, 1.0)
+        action = checked_action(tensordict["action"], (*self.batch_size, 3), "action")
         sp = td["setpoint"]
         setpoint = torch.stack(
             ((sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp(0.0, 100.0),
