@@ -222,6 +222,27 @@ def test_missing_keys_are_named():
         loss(_batch().exclude(("next", "cost"), ("next", "reward")))
 
 
+def test_a_cost_key_set_with_set_keys_must_be_in_the_data():
+    """A typo in ``set_keys(cost=...)`` used to fall back to ``-reward`` without a word."""
+    loss = _loss()
+    loss.set_keys(cost="costt")
+    with pytest.raises(ValueError, match=r"cost key 'costt' \(set with set_keys\).*'next'"):
+        loss(_batch())
+    default = _loss()  # the default key absent: -reward, as documented (e.g. Pendulum)
+    without_cost = default(_batch().exclude(("next", "cost")))
+    torch.testing.assert_close(without_cost["loss_lyapunov"], _loss()(_batch())["loss_lyapunov"])
+
+
+def test_a_critic_that_does_not_write_the_value_key_names_both_keys():
+    critic = ValueOperator(MLP(in_features=OBS + ACT, out_features=16, num_cells=[32]),
+                           in_keys=["observation", "action"], out_keys=["lyapunov"])  # fmt: skip
+    loss = LyapunovActorCriticLoss(_actor(), critic, form="squared")
+    with pytest.raises(ValueError, match=r"'value' key 'state_action_value'.*\['lyapunov'\]"):
+        loss(_batch())
+    loss.set_keys(value="lyapunov")
+    assert torch.isfinite(loss(_batch())["loss_lyapunov"])
+
+
 def test_multi_agent_keys_via_set_keys():
     n_agents = 2
     net = nn.Sequential(MLP(in_features=OBS, out_features=2 * ACT, num_cells=[32]),

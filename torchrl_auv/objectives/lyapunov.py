@@ -80,6 +80,16 @@ MODES = ("lac", "paper")
 LOSS_FUNCTIONS = ("l2", "smooth_l1")
 
 
+def _read_out(out: TensorDictBase, key: NestedKey, name: str, network: str, module) -> torch.Tensor:
+    """``out[key]``, or a ``ValueError`` naming the loss's key and the critic's out keys."""
+    value = out.get(key, None)
+    if value is None:
+        raise ValueError(f"the loss reads the {network}'s output from its {name!r} key {key!r}, "
+                         f"but the critic writes {list(module.out_keys)}: make them agree with "
+                         f"loss.set_keys({name}=...) or the critic's out_keys")  # fmt: skip
+    return value
+
+
 class LyapunovActorCriticLoss(LossModule):
     """Lyapunov actor-critic loss with Lagrangian dual updates (module docstring).
 
@@ -107,9 +117,10 @@ class LyapunovActorCriticLoss(LossModule):
             gives the constraint (module docstring, "Two critics"). ``None``: LAC as published.
 
     Keys (``set_keys``): ``action``, ``reward``, ``cost`` (the Lyapunov critic's cost; ``-reward``
-    when absent), ``task_cost`` (the Q critic's; ``-reward`` when absent), ``done``,
-    ``terminated``, ``value`` (the Lyapunov critic's out key), ``qvalue`` (the Q critic's out
-    key), ``observation`` (read by a prior), ``log_prob``.
+    when the default ``"cost"`` is absent; a key set with ``set_keys`` must be in the data),
+    ``task_cost`` (the Q critic's; likewise), ``done``, ``terminated``, ``value`` (the Lyapunov
+    critic's out key), ``qvalue`` (the Q critic's out key; a critic that does not write its key
+    is a ``ValueError`` naming both), ``observation`` (read by a prior), ``log_prob``.
 
     Output: ``loss_actor``, ``loss_lyapunov``, ``loss_lambda``, ``loss_beta`` and detached
     ``lambda``, ``beta``, ``delta_l`` (mean), ``violation_rate`` (fraction of
@@ -323,7 +334,8 @@ class LyapunovActorCriticLoss(LossModule):
         td = td.select(*self.lyapunov_network.in_keys, strict=False).copy()
         td.set(self.tensor_keys.action, action)
         with params.to_module(self.lyapunov_network):
-            raw = self.lyapunov_network(td).get(self.tensor_keys.value)
+            raw = _read_out(self.lyapunov_network(td), self.tensor_keys.value, "value",
+                            "lyapunov_network", self.lyapunov_network)  # fmt: skip
         observation = td.get(self.tensor_keys.observation, None) if self.spec.prior else None
         return lyapunov_value(raw, self.spec, observation)
 
@@ -332,21 +344,28 @@ class LyapunovActorCriticLoss(LossModule):
         td = td.select(*self.qvalue_network.in_keys, strict=False).copy()
         td.set(self.tensor_keys.action, action)
         with params.to_module(self.qvalue_network):
-            return self.qvalue_network(td).get(self.tensor_keys.qvalue)
+            return _read_out(self.qvalue_network(td), self.tensor_keys.qvalue, "qvalue",
+                             "qvalue_network", self.qvalue_network)  # fmt: skip
 
-    def _cost(self, next_td: TensorDictBase, key: NestedKey | None = None) -> torch.Tensor:
-        """The cost under ``key`` (default: the ``cost`` key), else ``-reward``."""
-        key = self.tensor_keys.cost if key is None else key
+    def _cost(self, next_td: TensorDictBase, name: str = "cost") -> torch.Tensor:
+        """The cost under the ``name`` key (``cost`` or ``task_cost``); when the data lack it,
+        ``-reward`` if the key is the default, else a ``ValueError`` (a key set with
+        ``set_keys`` that the data do not have is a typo, not a request for ``-reward``)."""
+        key = getattr(self.tensor_keys, name)
         cost = next_td.get(key, None)
-        if cost is None:
-            reward = next_td.get(self.tensor_keys.reward, None)
-            if reward is None:
-                raise ValueError(
-                    f"neither the cost key {key!r} nor the reward key "
-                    f"{self.tensor_keys.reward!r} is in the data's 'next' entry"
-                )
-            cost = -reward
-        return cost
+        if cost is not None:
+            return cost
+        if key != getattr(self.default_keys(), name):
+            have = sorted(str(k) for k in next_td.keys(True, True))
+            raise ValueError(f"the {name} key {key!r} (set with set_keys) is not in the data's "
+                             f"'next' entry, which has {have}")  # fmt: skip
+        reward = next_td.get(self.tensor_keys.reward, None)
+        if reward is None:
+            raise ValueError(
+                f"neither the {name} key {key!r} nor the reward key "
+                f"{self.tensor_keys.reward!r} is in the data's 'next' entry"
+            )
+        return -reward
 
     def _td_loss(self, value: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
         """The critics' TD loss (``loss_function``)."""
@@ -392,7 +411,7 @@ class LyapunovActorCriticLoss(LossModule):
         loss_actor = self.lambda_.detach() * delta.mean() + self.beta.detach() * log_prob.mean()
         task = {}
         if self.qvalue_network is not None:  # the task: a Q critic on task_cost
-            task_cost = self._cost(next_td, self.tensor_keys.task_cost)
+            task_cost = self._cost(next_td, "task_cost")
             with torch.no_grad():
                 next_q = self._qvalue(next_td, next_action, self.target_qvalue_network_params)
                 q_target = task_cost + self.gamma * continues * next_q
