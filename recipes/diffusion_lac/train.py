@@ -68,6 +68,7 @@ def main(cfg: DictConfig) -> None:
     spec = learner.loss.spec
     facts["Lyapunov spec at the end"] = f"{spec.form}, alpha {spec.alpha:g}"
     facts["advisor consultations"] = len(advising.trigger.records)
+    facts["advisor failures"] = advising.trigger.failure_summary()  # also said on the console
     policies = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor,
                                                         proposer)  # fmt: skip
     print(run.evaluate(policies, title="Diffusion + LAC", facts=facts).read_text())

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 
 import pytest
@@ -109,15 +110,22 @@ def test_trigger_consults_at_start_on_thresholds_and_respects_the_cooldown(tmp_p
     assert len(log.read_text().splitlines()) == 3
 
 
-def test_an_advisor_that_raises_does_not_stop_training(tmp_path):
+def test_an_advisor_that_raises_does_not_stop_training_and_says_so_once(tmp_path, caplog):
     class Broken:
         def propose(self, task, feedback, current) -> AdvisorDecision:
             raise RuntimeError("boom")
 
     loss = _Loss()
-    decision = AdvisorTrigger(Broken(), "x", log_path=tmp_path / "a.jsonl").step(0, None, loss)
-    assert not decision.accepted and decision.reasons == ("advisor raised RuntimeError",)
+    trigger = AdvisorTrigger(Broken(), "x", log_path=tmp_path / "a.jsonl", cooldown=0)
+    with caplog.at_level(logging.WARNING):
+        decision = trigger.step(0, None, loss)
+        for frame in (10, 20):  # the same failure again: counted, said once
+            trigger.step(frame, TrainingFeedback(collisions=1.0), loss)
+    assert not decision.accepted and decision.reasons == ("advisor raised RuntimeError: boom",)
     assert loss.spec == LyapunovSpec()
+    said = [r.getMessage() for r in caplog.records if "kept the Lyapunov spec" in r.getMessage()]
+    assert len(said) == 1 and "RuntimeError: boom" in said[0]
+    assert trigger.failure_summary() == "advisor raised RuntimeError: boom (x3)"
     with pytest.raises(ValueError, match="advisor"):
         AdvisorTrigger(object(), "x", log_path=tmp_path / "a.jsonl")
 

@@ -175,7 +175,7 @@ def test_timeout_keeps_the_spec_and_ends_the_consultation(chat_server, tmp_path,
     assert time.perf_counter() - start < 15.0 and record["latency_s"] < 15.0
     assert len(chat_server.requests) == 1  # a timeout ends the consultation at once
     assert not decision.accepted and loss.spec == CURRENT
-    assert record["reasons"] == ["timeout after 0.5 s (json_schema)"]
+    assert record["reasons"] == [f"timeout after 0.5 s at {chat_server.base_url} (json_schema)"]
 
 
 def test_the_timeout_bounds_the_whole_consultation(chat_server, tmp_path, caplog, secret_key):
@@ -192,7 +192,7 @@ def test_the_timeout_bounds_the_whole_consultation(chat_server, tmp_path, caplog
     assert len(chat_server.requests) == 2
     assert [strategy_of(r["body"]) for r in chat_server.requests] == ["json_schema", "tool"]
     assert record["reasons"][0].startswith("HTTP 500 for json_schema")
-    assert record["reasons"][1:] == ["timeout after 3 s (tool)"]
+    assert record["reasons"][1:] == [f"timeout after 3 s at {chat_server.base_url} (tool)"]
     assert not decision.accepted and loss.spec == CURRENT and record["latency_s"] < 15.0
 
 
@@ -217,7 +217,10 @@ def test_connection_refused_keeps_the_spec(tmp_path, caplog, secret_key, monkeyp
     url = f"http://127.0.0.1:{port}/v1"
     decision, loss, record = consult(url, tmp_path, caplog)
     assert not decision.accepted and loss.spec == CURRENT
-    assert record["reasons"][0].startswith("connection failed")
+    assert record["reasons"][0].startswith(f"connection to {url} failed")
+    # said on the console (the trigger's logger), with the endpoint
+    warnings = [r for r in caplog.records if r.levelname == "WARNING" and url in r.getMessage()]
+    assert len(warnings) == 1 and "kept the Lyapunov spec" in warnings[0].getMessage()
 
     clock = _VirtualClock()  # back-offs cost no wall time and no machine load can stretch them
     monkeypatch.setattr(openai_compatible, "time", clock)
@@ -232,7 +235,7 @@ def test_connection_refused_keeps_the_spec(tmp_path, caplog, secret_key, monkeyp
     retrying = OpenAICompatibleAdvisor(url, "m", timeout=30.0, max_retries=2)
     calls = attempts_of(retrying)
     decision = retrying.propose("x", None, CURRENT)
-    assert not decision.accepted and decision.reasons[0].startswith("connection failed")
+    assert not decision.accepted and decision.reasons[0].startswith(f"connection to {url} failed")
     assert len(calls) == 1 + 2 and len(clock.sleeps) == 2
     assert all(s > 0 for s in clock.sleeps) and sum(clock.sleeps) <= 30.0
     # a short timeout ends the retries early: never sleeps past the deadline
@@ -241,7 +244,7 @@ def test_connection_refused_keeps_the_spec(tmp_path, caplog, secret_key, monkeyp
     calls = attempts_of(hurried)
     decision = hurried.propose("x", None, CURRENT)
     assert not decision.accepted and decision.form == CURRENT.form
-    assert decision.reasons[0].startswith(("timeout after 1 s", "connection failed"))
+    assert decision.reasons[0].startswith((f"timeout after 1 s at {url}", f"connection to {url}"))
     assert 1 <= len(calls) < 51 and sum(clock.sleeps) <= 1.0 + 1e-9
 
 

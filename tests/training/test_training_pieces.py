@@ -28,7 +28,9 @@ from torchrl_auv.objectives import LyapunovSpec
      ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every"),
      ({"selection": {"include_actor": "yes"}}, "selection.include_actor"),
      ({"optim": {"loss_function": "l1"}}, "optim.loss_function"),
-     ({"lyapunov": {"cost": "energy"}}, "lyapunov.cost")],
+     ({"lyapunov": {"cost": "energy"}}, "lyapunov.cost"),
+     ({"logger": {"backend": "wandbb"}}, "logger.backend"),
+     ({"optim": {"updates_per_batch": 0}}, "optim.updates_per_batch")],
 )  # fmt: skip
 def test_check_choices_names_the_key(cfg, named):
     with pytest.raises(ValueError, match=named.replace(".", r"\.")):
@@ -39,6 +41,12 @@ def test_check_choices_accepts_the_recipe_defaults():
     training.check_choices({"env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
                             "collector": {"total_frames": 10, "num_workers": 2,
                                           "backend": "local"}, "device": "cpu"})  # fmt: skip
+
+
+def test_a_run_shorter_than_its_random_warm_up_is_said_before_it_starts():
+    with pytest.warns(UserWarning, match=r"collector\.total_frames \(200\) <= "
+                      r"collector\.init_random_frames \(400\).*no gradient update"):  # fmt: skip
+        training.check_choices({"collector": {"total_frames": 200, "init_random_frames": 400}})
 
 
 def test_the_replay_buffer_stores_only_what_the_losses_read():
@@ -312,3 +320,27 @@ def test_close_logger_finishes_wandb_runs_and_leaves_other_loggers(tmp_path):
     logger = _Logger()
     training.close_logger(logger)
     assert logger.experiment.finished
+
+
+def test_an_unreachable_advisor_endpoint_is_refused_before_any_work():
+    import http.server
+    import socket
+    import threading
+
+    with socket.socket() as s:  # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    cfg = {"advisor": {"backend": "openai", "base_url": f"http://127.0.0.1:{port}/v1"}}
+    with pytest.raises(ValueError, match=rf"advisor\.base_url http://127\.0\.0\.1:{port}/v1 "
+                       r"does not answer.*advisor\.backend=rules"):  # fmt: skip
+        training.check_config(cfg)
+    # a real HTTP server answers (a 404 for /models still proves the endpoint is there)
+    server = http.server.HTTPServer(("127.0.0.1", 0), http.server.BaseHTTPRequestHandler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        cfg["advisor"]["base_url"] = f"http://127.0.0.1:{server.server_port}/v1"
+        training.check_config(cfg)
+    finally:
+        server.shutdown()
+        server.server_close()
+    training.check_config({"advisor": {"backend": "rules", "base_url": "http://127.0.0.1:1"}})

@@ -94,7 +94,10 @@ class FixedAdvisor:
     def propose(
         self, task: str, feedback: TrainingFeedback | None, current: LyapunovSpec
     ) -> AdvisorDecision:
-        return AdvisorDecision.keep(current, "fixed", "the spec is fixed for this run")
+        # accepted: keeping the spec is this advisor's answer, not a failure
+        fixed = "the spec is fixed for this run"
+        return AdvisorDecision(form=current.form, prior=current.prior, alpha=current.alpha,
+                               source="fixed", reasons=(fixed,))  # fmt: skip
 
 
 def validate_answer(

@@ -155,10 +155,11 @@ class OpenAICompatibleAdvisor:
                 raw = self._request_within(client, strategy, messages, deadline)
                 answer = json.loads(raw) if strategy != "text" else json_from_text(raw)
             except (openai.APITimeoutError, TimeoutError):
-                reasons.append(f"timeout after {self.timeout:g} s ({strategy})")
+                reasons.append(f"timeout after {self.timeout:g} s at {self.base_url} ({strategy})")
                 break
             except openai.APIConnectionError as err:
-                reasons.append(f"connection failed ({strategy}): {type(err).__name__}")
+                reasons.append(f"connection to {self.base_url} failed ({strategy}): "
+                               f"{type(err).__name__}")  # fmt: skip
                 break
             except openai.APIStatusError as err:
                 reasons.append(f"HTTP {err.status_code} for {strategy}: {_short(err.message)}")

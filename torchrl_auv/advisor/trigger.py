@@ -22,6 +22,8 @@ aggressive: log 0, softplus 1, squared 2).
 from __future__ import annotations
 
 import json
+import logging
+import re
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -32,6 +34,8 @@ from torchrl.record.loggers.wandb import WandbLogger
 from torchrl_auv.advisor.decision import Advisor, AdvisorDecision
 from torchrl_auv.advisor.feedback import TrainingFeedback
 from torchrl_auv.advisor.rules import FORM_ORDER, OSCILLATION_HIGH, VIOLATION_HIGH, WORSENING
+
+log = logging.getLogger(__name__)
 
 __all__ = ["AdvisorTrigger"]
 
@@ -86,6 +90,8 @@ class AdvisorTrigger:
         self.oscillation, self.violation, self.worsening = oscillation, violation, worsening
         self.logger = logger
         self.records: list[dict[str, Any]] = []
+        #: failed or rejected consultations by kind (the first reason, numbers blanked)
+        self.failures: dict[str, int] = {}
         self._last_frame: int | None = None
 
     def state_dict(self) -> dict[str, Any]:
@@ -124,9 +130,11 @@ class AdvisorTrigger:
         try:
             decision = self.advisor.propose(self.task, feedback, before)
         except Exception as err:  # an advisor must not crash training: keep the spec
-            decision = AdvisorDecision.keep(before, type(self.advisor).__name__,
-                                            f"advisor raised {type(err).__name__}")  # fmt: skip
+            why = f"advisor raised {type(err).__name__}: {err}"
+            decision = AdvisorDecision.keep(before, type(self.advisor).__name__, why)
         latency = time.perf_counter() - start
+        if not decision.accepted:
+            self._report_failure(frame, decision)
         after = decision.to_spec(before) if decision.accepted else before
         applied = after != before
         if applied:
@@ -145,6 +153,25 @@ class AdvisorTrigger:
             f.write(json.dumps(record) + "\n")
         self._log(frame, record, loss.spec)
         return decision
+
+    def _report_failure(self, frame: int, decision: AdvisorDecision) -> None:
+        """Count a consultation that kept the spec; say the first of each kind on the console
+        (with the advisor, e.g. its endpoint), since training goes on without its advice."""
+        reasons = "; ".join(decision.reasons) or "no reason given"
+        kind = re.sub(r"\d+(\.\d+)?", "#", decision.reasons[0] if decision.reasons else reasons)
+        self.failures[kind] = self.failures.get(kind, 0) + 1
+        if self.failures[kind] == 1:
+            log.warning(
+                "advisor %r kept the Lyapunov spec at frame %d: %s (said once per kind; "
+                "training goes on with the spec in force)",
+                self.advisor,
+                frame,
+                reasons,
+            )
+
+    def failure_summary(self) -> str:
+        """``"none"``, or each kind of failed consultation with its count."""
+        return "; ".join(f"{kind} (x{n})" for kind, n in self.failures.items()) or "none"
 
     def _log(self, frame: int, record: dict[str, Any], spec) -> None:
         if self.logger is None:

@@ -9,6 +9,7 @@ Examples:
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 
 from torchrl_auv.control import available_controllers
@@ -19,12 +20,23 @@ from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
 from torchrl_auv.training.collectors import COLLECTOR_BACKENDS, check_ray_backend
 
-__all__ = ["check_choices", "check_config", "resolve_config"]
+__all__ = [
+    "LOGGER_BACKENDS",
+    "check_choices",
+    "check_config",
+    "check_endpoint",
+    "resolve_config",
+]
+
+#: ``logger.backend`` values: TorchRL's ``get_logger`` types this project installs and tests
+#: (empty: no logger)
+LOGGER_BACKENDS = ("wandb", "csv", "tensorboard", "")
 
 POSITIVE_INTEGERS = (
     "collector.total_frames",
     "collector.frames_per_batch",
     "collector.num_workers",
+    "optim.updates_per_batch",
     "env.num_envs",
     "replay_buffer.size",
     "replay_buffer.batch_size",
@@ -43,6 +55,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "env.controller": available_controllers(),
         "env.rate_model": RATE_MODELS,
         "collector.backend": COLLECTOR_BACKENDS,
+        "logger.backend": LOGGER_BACKENDS,
         "replay_buffer.storage": ("memory", "memmap"),
         "advisor.backend": ("rules", "fixed", "openai"),
         "advisor.form": tuple(sorted(FORMS)),
@@ -85,6 +98,11 @@ def check_choices(cfg: Mapping) -> None:
     if replan is not None and horizon is not None and replan > horizon:
         raise ValueError(f"proposer.alone_replan_every must be <= proposer.horizon ({horizon}): "
                          f"a plan is one chunk; got {replan}")  # fmt: skip
+    total, random = _get(cfg, "collector.total_frames"), _get(cfg, "collector.init_random_frames")
+    if total is not None and random and total <= random:
+        warnings.warn(f"collector.total_frames ({total}) <= collector.init_random_frames "
+                      f"({random}): the run collects random actions only and makes no gradient "
+                      "update", stacklevel=2)  # fmt: skip
     if _get(cfg, "device") == "cuda":
         import torch
 
@@ -131,3 +149,29 @@ def check_config(cfg: Mapping) -> None:
     check_choices(cfg)
     if _get(cfg, "collector.backend") == "ray":
         check_ray_backend(_get(cfg, "collector.ray_address"))
+    if _get(cfg, "advisor.backend") == "openai":
+        check_endpoint(_get(cfg, "advisor.base_url"), "advisor.base_url")
+
+
+def check_endpoint(url: object, key: str, timeout_s: float = 5.0) -> None:
+    """Raise ``ValueError`` naming ``key`` unless an HTTP server answers at ``url`` (any HTTP
+    status counts: the advisor's own requests report authentication and model errors).
+
+    >>> check_endpoint("ftp://x", "advisor.base_url")
+    Traceback (most recent call last):
+    ...
+    ValueError: advisor.base_url must be an http(s) URL, got 'ftp://x'
+    """
+    import urllib.error
+    import urllib.request
+
+    if not isinstance(url, str) or not url.startswith(("http://", "https://")):
+        raise ValueError(f"{key} must be an http(s) URL, got {url!r}")
+    try:
+        urllib.request.urlopen(url.rstrip("/") + "/models", timeout=timeout_s).close()
+    except urllib.error.HTTPError:
+        return  # the server answered
+    except (urllib.error.URLError, OSError) as error:
+        reason = getattr(error, "reason", error)
+        raise ValueError(f"{key} {url} does not answer ({reason}): start the server, or use "
+                         "advisor.backend=rules (the offline advisor)") from None  # fmt: skip
