@@ -81,6 +81,21 @@ def test_a_resumed_run_does_not_evaluate_its_start_again_and_off_means_off(tmp_p
     assert off.calls == 0 and not (tmp_path / "off" / "eval_curve.csv").exists()
 
 
+def test_a_resumed_run_drops_the_curve_rows_logged_after_its_checkpoint(tmp_path):
+    """The session that died logged rows past its last checkpoint; resumed from frames 16,
+    the curves go on from 16 and never run back in time."""
+    first = training.RunTracker(_cfg(10), tmp_path, None, training.Progress(), None, None,
+                                eval_policy=_Calls())  # fmt: skip
+    for frames in (10, 20, 30):  # curve points at 0, 10, 20, 30; training rows at 10, 20, 30
+        first.progress.frames = frames
+        first.step(_batch(), {})
+    training.RunTracker(_cfg(10), tmp_path, None, training.Progress(frames=16), None, None,
+                        eval_policy=_Calls())  # fmt: skip
+    assert _curve_steps(tmp_path / "eval_curve.csv")[0] == [0, 10]
+    train_rows = _curve_steps(tmp_path / "train_curve.csv")[1][1:]  # after the header
+    assert train_rows and {int(r["step"]) for r in train_rows} == {10}
+
+
 def test_the_bar_shows_the_last_ended_episodes_not_nan(tmp_path):
     tracker = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(), None, None)
     tracker.step(_batch(), {})

@@ -13,12 +13,19 @@ Examples:
 from __future__ import annotations
 
 import csv
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-__all__ = ["close_logger", "log_metrics", "logger_from_config", "make_logger"]
+__all__ = [
+    "close_logger",
+    "log_metrics",
+    "logger_from_config",
+    "make_logger",
+    "truncate_curve",
+]
 
 
 def make_logger(
@@ -71,6 +78,33 @@ def log_metrics(
             if new:
                 writer.writerow(("step", "key", "value"))
             writer.writerows((step, key, value) for key, value in metrics.items())
+
+
+def truncate_curve(curve: Path, last_step: int) -> int:
+    """Drop the rows of a ``step,key,value`` curve logged after ``last_step`` (a resumed run
+    goes on from its checkpoint: rows past it were logged by the session that died, and would
+    make the curve run back in time); atomic. Returns the rows dropped (0 without a file).
+
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "curve.csv"
+    >>> for step in (100, 200):
+    ...     log_metrics(None, {"a": step / 100}, step, curve=path)
+    >>> truncate_curve(path, 150), path.read_text().split()
+    (1, ['step,key,value', '100,a,1.0'])
+    """
+    curve = Path(curve)
+    if not curve.exists():
+        return 0
+    with open(curve, newline="") as handle:
+        rows = list(csv.reader(handle))
+    kept = rows[:1] + [row for row in rows[1:] if row and int(row[0]) <= last_step]
+    if len(kept) == len(rows):
+        return 0
+    temporary = curve.with_name(f".{curve.name}.tmp")
+    with open(temporary, "w", newline="") as handle:
+        csv.writer(handle).writerows(kept)
+    os.replace(temporary, curve)
+    return len(rows) - len(kept)
 
 
 def close_logger(logger) -> None:

@@ -25,7 +25,7 @@ from tensordict import TensorDictBase
 
 from torchrl_auv.training.env import held_out_env
 from torchrl_auv.training.evaluation import evaluate
-from torchrl_auv.training.loggers import log_metrics
+from torchrl_auv.training.loggers import log_metrics, truncate_curve
 from torchrl_auv.training.summary import SUMMARY_COLUMNS
 
 __all__ = ["EPISODE_METRICS", "RunTracker", "batch_metrics", "peak_rss_mb", "progress_postfix"]
@@ -110,6 +110,8 @@ class RunTracker:
         self.checkpoint, self.rotation = checkpoint, rotation
         self.curve = Path(run_dir) / "train_curve.csv"
         self.eval_curve = Path(run_dir) / "eval_curve.csv"
+        for curve in (self.curve, self.eval_curve):  # resumed: from the checkpoint's frames on
+            truncate_curve(curve, progress.frames)
         self.bar = tqdm.tqdm(total=cfg.collector.total_frames, initial=progress.frames,
                              unit="frame")  # fmt: skip
         self.start = time.perf_counter()
