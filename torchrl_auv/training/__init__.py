@@ -38,7 +38,7 @@ from torchrl_auv.training.collectors import (
     collector_from_config,
     make_collector,
 )
-from torchrl_auv.training.config import check_choices, check_config
+from torchrl_auv.training.config import check_choices, check_config, check_endpoint
 from torchrl_auv.training.env import (
     env_factory,
     env_from_config,
@@ -87,6 +87,7 @@ from torchrl_auv.training.loggers import (
     log_metrics,
     logger_from_config,
     make_logger,
+    truncate_curve,
 )
 from torchrl_auv.training.networks import (
     ObsActionMLP,
@@ -126,6 +127,7 @@ from torchrl_auv.training.tracking import (
     peak_rss_mb,
     progress_postfix,
 )
+from torchrl_auv.training.verified_rotation import VerifiedRotation, checkpoint_problems
 
 __all__ = [
     "ACTION",
@@ -153,6 +155,7 @@ __all__ = [
     "Run",
     "RunTracker",
     "SpecState",
+    "VerifiedRotation",
     "acting_actor",
     "advisor_from_config",
     "batch_metrics",
@@ -161,8 +164,10 @@ __all__ = [
     "bytes_per_frame",
     "check_choices",
     "check_config",
+    "check_endpoint",
     "check_ray_address",
     "check_ray_backend",
+    "checkpoint_problems",
     "close_logger",
     "collector_from_config",
     "configure_threads",
@@ -210,6 +215,7 @@ __all__ = [
     "seed_everything",
     "select_for_replay",
     "start_run",
+    "truncate_curve",
     "values_key",
     "write_eval",
     "write_summary",
