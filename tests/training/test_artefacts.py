@@ -59,6 +59,22 @@ def test_a_failed_build_leaves_no_artefact_and_the_next_call_builds(tmp_path):
     assert built and not (folder / "half.txt").exists()
 
 
+def test_builds_cut_short_by_a_kill_are_cleared_by_the_next_build(tmp_path):
+    """A SIGKILL skips the cleanup: its half-built folder stays until the next build of the
+    same values (which holds the lock, so no build of them is running) removes it."""
+    cache = ArtefactCache(tmp_path)
+    name = cache.folder("stage", {"seed": 0}).name
+    for pid in (111, 222):  # two killed builds
+        (tmp_path / f".{name}.partial-{pid}").mkdir()
+        (tmp_path / f".{name}.partial-{pid}" / "demos.pt").write_text("half")
+    other = tmp_path / ".other-values.partial-333"  # another artefact's: not touched
+    other.mkdir()
+    folder, built = cache.get_or_build("stage", {"seed": 0}, _build_counting)
+    assert built and folder.is_dir()
+    left = sorted(p.name for p in tmp_path.iterdir() if ".partial-" in p.name)
+    assert left == [other.name]
+
+
 def _slow_build(folder):
     import time
 

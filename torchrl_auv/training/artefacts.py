@@ -114,9 +114,10 @@ class ArtefactCache:
                 check_values(folder, values)
                 log.info("artefact: reusing %s", folder)
                 return folder, False
+            # builds of this folder that a kill -9 cut short (the lock is ours: none is running)
+            for stale in self.root.glob(f".{folder.name}.partial-*"):
+                shutil.rmtree(stale, ignore_errors=True)
             partial = self.root / f".{folder.name}.partial-{os.getpid()}"
-            if partial.exists():
-                shutil.rmtree(partial)
             partial.mkdir()
             try:
                 build(partial)
