@@ -30,7 +30,11 @@ from pathlib import Path
 
 from torchrl.checkpoint import Checkpoint, CheckpointError, GlobalRNGState
 
-from torchrl_auv.training.verified_rotation import VerifiedRotation, checkpoint_problems
+from torchrl_auv.training.verified_rotation import (
+    CHECKSUMS,
+    VerifiedRotation,
+    checkpoint_problems,
+)
 
 __all__ = ["ProgressState", "SpecState", "make_checkpoint", "resume_latest"]
 
@@ -94,7 +98,8 @@ def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress) -> tupl
                 + " | ".join(f"{path}: {'; '.join(problems)}" for path, problems in damaged)
             )
         return 0, {}
-    if problems := checkpoint_problems(intact):
+    # newest_intact hashed it already; only a checkpoint without checksums is unverified
+    if not (intact / CHECKSUMS).exists() and (problems := checkpoint_problems(intact)):
         warnings.warn(f"checkpoint {intact} cannot be verified ({'; '.join(problems)}); "
                       "loading it unverified", stacklevel=2)  # fmt: skip
     elif damaged:
