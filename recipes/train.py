@@ -18,6 +18,8 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
+import torchrl_auv.training  # noqa: F401  (registers the run_folder resolver the presets use)
+
 HERE = Path(__file__).resolve().parent
 
 

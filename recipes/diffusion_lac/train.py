@@ -67,7 +67,7 @@ def main(cfg: DictConfig) -> None:
     #    alone, the proposer alone, the expert and random actions; plots
     spec = learner.loss.spec
     facts["Lyapunov spec at the end"] = f"{spec.form}, alpha {spec.alpha:g}"
-    facts["advisor consultations"] = len(advising.trigger.records)
+    facts["advisor consultations"] = advising.trigger.consultations  # resumed sessions too
     facts["advisor failures"] = advising.trigger.failure_summary()  # also said on the console
     policies = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor,
                                                         proposer)  # fmt: skip

@@ -192,3 +192,34 @@ def test_in_a_training_loop_the_decision_changes_the_loss_spec(tmp_path):
     assert loss.spec.form == later[-1]["decision"]["form"]
     assert loss.spec.alpha == later[-1]["decision"]["alpha"]
     assert not torch.equal(loss.log_lambda.detach(), lambda_before)  # duals kept training
+
+
+def test_consultation_and_failure_counts_survive_a_checkpoint(tmp_path):
+    """A resumed run's summary counts every session's consultations and failures, not only the
+    last session's (the counts ride in the trigger's state_dict through a real checkpoint)."""
+    from torchrl_auv.training import make_checkpoint, resume_latest
+
+    class Broken:
+        def propose(self, task, feedback, current) -> AdvisorDecision:
+            raise RuntimeError("boom: 12 s")
+
+    def trigger() -> AdvisorTrigger:
+        return AdvisorTrigger(Broken(), "x", log_path=tmp_path / "a.jsonl", cooldown=0)
+
+    first, progress = trigger(), {"frames": 0}
+    for frame in (0, 10):
+        first.step(frame, TrainingFeedback(collisions=1.0), _Loss())
+    ckpt, rotation = make_checkpoint(tmp_path, modules={"advisor": first}, progress=progress)
+    progress["frames"] = 10
+    rotation.save(ckpt, step=10)
+
+    second, progress = trigger(), {"frames": 0}
+    ckpt, _ = make_checkpoint(tmp_path, modules={"advisor": second}, progress=progress)
+    assert resume_latest(tmp_path, ckpt, progress)[0] == 10
+    second.step(20, TrainingFeedback(collisions=1.0), _Loss())
+    assert second.consultations == 3 and len(second.records) == 1
+    assert second.failure_summary() == "advisor raised RuntimeError: boom: # s (x3)"
+    # a checkpoint written before the counts were kept still loads
+    third = trigger()
+    third.load_state_dict({"last_frame": 5})
+    assert third.consultations == 0 and third.failures == {} and third.reason(5, None) is None

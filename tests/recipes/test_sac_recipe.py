@@ -73,7 +73,7 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
 def test_an_unknown_value_fails_before_any_work_naming_it(tmp_path, override, named):
     result = _run(_command(tmp_path / "run", override, "logger.backend="), timeout=120)
     assert result.returncode != 0 and named in result.stderr
-    assert not (tmp_path / "run" / "checkpoints").exists()
+    assert not (tmp_path / "run").exists()  # no half-made folder (Hydra's is removed)
 
 
 def test_a_run_killed_with_sigkill_resumes_from_its_latest_checkpoint(tmp_path):
@@ -92,18 +92,29 @@ def test_a_run_killed_with_sigkill_resumes_from_its_latest_checkpoint(tmp_path):
     reached = max(_checkpoint_steps(run_dir))
     assert 400 <= reached < 1000 and not (run_dir / "summary.md").exists()
 
-    result = _run(_command(run_dir, "collector.total_frames=1000", "checkpoint.every_frames=200",
-                           "logger.backend=", f"resume={run_dir}"))  # fmt: skip
+    # resume names the run; run_dir keeps its default (a new stamped folder under run_root),
+    # which must not be made
+    resume = [sys.executable, "recipes/sac/train.py", *TINY, "collector.total_frames=1000",
+              "checkpoint.every_frames=200", "logger.backend=", f"resume={run_dir}",
+              f"run_root={tmp_path / 'root'}"]  # fmt: skip
+    result = _run(resume)
     assert result.returncode == 0, result.stderr[-3000:]
+    assert not (tmp_path / "root").exists()
+    assert "resume=" in (run_dir / ".hydra" / "overrides.yaml").read_text()
+    assert "resumed" in (run_dir / "train.log").read_text()
     assert f"resumed {run_dir} at {reached} frames" in result.stdout + result.stderr
     summary = (run_dir / "summary.md").read_text()
     assert "- frames: 1000" in summary  # continued the count, did not start over
     steps = _checkpoint_steps(run_dir)
     assert steps[-1] == 1000 and len(steps) <= 2  # rotation keeps the newest two
 
-    # the finished run's checkpoints are not overwritten by a new run in the same folder
+    # the finished run is not touched by a refused new run in the same folder: checkpoints,
+    # Hydra's files and the log stay as they were
+    kept = {p: p.read_bytes() for p in [*(run_dir / ".hydra").iterdir(), run_dir / "train.log"]}
     again = _run(_command(run_dir, "collector.total_frames=200", "logger.backend="), timeout=120)
     assert again.returncode != 0 and f"resume={run_dir}" in again.stderr
     assert _checkpoint_steps(run_dir) == steps
+    assert {p: p.read_bytes() for p in kept} == kept
     missing = _run(_command(run_dir, "logger.backend=", f"resume={tmp_path / 'none'}"), 120)
     assert missing.returncode != 0 and "holds no checkpoints" in missing.stderr
+    assert not (tmp_path / "none").exists() and {p: p.read_bytes() for p in kept} == kept

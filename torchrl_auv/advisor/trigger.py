@@ -89,19 +89,31 @@ class AdvisorTrigger:
         self.cooldown = int(cooldown)
         self.oscillation, self.violation, self.worsening = oscillation, violation, worsening
         self.logger = logger
+        #: this session's consultations (the full record of every session is ``log_path``)
         self.records: list[dict[str, Any]] = []
-        #: failed or rejected consultations by kind (the first reason, numbers blanked)
+        #: consultations over the whole run, resumed sessions included (kept by state_dict)
+        self.consultations = 0
+        #: failed or rejected consultations by kind (the first reason, numbers blanked), over the
+        #: whole run
         self.failures: dict[str, int] = {}
         self._last_frame: int | None = None
 
     def state_dict(self) -> dict[str, Any]:
-        """What a resumed run needs: the frame of the last consultation (``-1``: none yet).
-        The spec in force lives in the loss; checkpoint it with the loss's owner."""
-        return {"last_frame": -1 if self._last_frame is None else int(self._last_frame)}
+        """What a resumed run needs: the frame of the last consultation (``-1``: none yet) and
+        the run's consultation and failure counts. The spec in force lives in the loss;
+        checkpoint it with the loss's owner."""
+        return {
+            "last_frame": -1 if self._last_frame is None else int(self._last_frame),
+            "consultations": self.consultations,
+            "failures": dict(self.failures),
+        }
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         last = int(state["last_frame"])
         self._last_frame = None if last < 0 else last
+        # checkpoints written before the counts were kept hold only the frame
+        self.consultations = int(state.get("consultations", 0))
+        self.failures = {str(k): int(v) for k, v in state.get("failures", {}).items()}
 
     def reason(self, frame: int, feedback: TrainingFeedback | None) -> str | None:
         """Why to consult now (``"start"``, a threshold), or ``None``."""
@@ -125,6 +137,7 @@ class AdvisorTrigger:
         if why is None:
             return None
         self._last_frame = frame
+        self.consultations += 1
         before = loss.spec
         start = time.perf_counter()
         try:

@@ -42,6 +42,7 @@ from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.env import held_out_env
 from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.loggers import close_logger, log_metrics, logger_from_config
+from torchrl_auv.training.run_folder import hydra_folder, remove_if_unused, write_hydra_files
 from torchrl_auv.training.seeding import configure_threads, seed_everything
 from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summary
 from torchrl_auv.training.tracking import RunTracker
@@ -62,20 +63,29 @@ class Progress:
 
 def start_run(cfg: DictConfig) -> Path:
     """Check the config's values (before any work), pin threads, seed every RNG, create and
-    return the run folder (``resume`` when set, else ``run_dir``). A ``run_dir`` that already
-    holds checkpoints is refused without ``resume`` (its checkpoints would be overwritten), and
-    a ``resume`` folder without checkpoints is refused too."""
-    check_config(resolve_config(cfg))
+    return the run folder (``resume`` when set, else ``run_dir``) with Hydra's ``.hydra/``
+    files. A ``run_dir`` that already holds checkpoints is refused without ``resume`` (its
+    checkpoints would be overwritten), and a ``resume`` folder without checkpoints is refused
+    too; a refused start writes nothing and removes the empty folder Hydra made for it
+    (:mod:`~torchrl_auv.training.run_folder`)."""
+    try:
+        check_config(resolve_config(cfg))
+        run_dir = Path(cfg.resume or cfg.run_dir)
+        checkpoints = run_dir / "checkpoints"
+        if not cfg.resume and checkpoints.is_dir() and any(checkpoints.iterdir()):
+            raise ValueError(
+                f"run_dir {run_dir} already holds a run's checkpoints; pass "
+                f"resume={run_dir} to continue it, or choose a new run_dir"
+            )
+        if cfg.resume and not checkpoints.is_dir():
+            raise ValueError(f"resume={run_dir} holds no checkpoints/ to continue from")
+    except Exception:
+        remove_if_unused(hydra_folder())
+        raise
     configure_threads(int(cfg.threads))
     seed_everything(int(cfg.seed))
-    run_dir = Path(cfg.resume or cfg.run_dir)
-    checkpoints = run_dir / "checkpoints"
-    if not cfg.resume and checkpoints.is_dir() and any(checkpoints.iterdir()):
-        raise ValueError(f"run_dir {run_dir} already holds a run's checkpoints; pass "
-                         f"resume={run_dir} to continue it, or choose a new run_dir")  # fmt: skip
-    if cfg.resume and not checkpoints.is_dir():
-        raise ValueError(f"resume={run_dir} holds no checkpoints/ to continue from")
     run_dir.mkdir(parents=True, exist_ok=True)
+    write_hydra_files(run_dir, cfg)
     return run_dir
 
 
