@@ -6,6 +6,7 @@ import importlib
 
 import gymnasium
 import numpy as np
+import pytest
 from gymnasium.utils.env_checker import check_env
 
 import torchrl_auv.envs
@@ -51,3 +52,16 @@ def test_data_collection_id_passes_the_env_checker():
         _, reward, terminated, truncated, info = env.step(env.action_space.sample())
         done = terminated or truncated
     assert np.isfinite(reward) and info["cost"] >= 0 and "ssn" in info["metrics"]
+
+
+@pytest.mark.parametrize("env_id", ["torchrl_auv/DataCollection-v1", "torchrl_auv/Tracking-v0"])
+def test_a_non_finite_or_misshapen_gymnasium_action_is_an_error_naming_it(env_id):
+    """Through gymnasium a NaN action used to end the episode as diverged with NaN metrics."""
+    env = gymnasium.make(env_id, max_steps=4)
+    env.reset(seed=0)
+    action = env.action_space.sample()
+    action[0] = np.nan
+    with pytest.raises(ValueError, match="action has 1 non-finite entries"):
+        env.step(action)
+    with pytest.raises(ValueError, match=rf"action must have shape \[{action.size}\]"):
+        env.step(np.zeros(action.size - 1, dtype=np.float32))

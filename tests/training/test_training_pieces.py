@@ -91,7 +91,7 @@ def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
     assert training.resume_latest(tmp_path, ckpt2, fresh_progress)[0] == 400
     assert (fresh_loss.spec.form, fresh_loss.spec.alpha) == ("log", 0.05)
     # the cooldown runs on from the restored consultation frame: no "start" consultation
-    assert fresh.reason(400, None) is None and fresh.state_dict() == {"last_frame": 300}
+    assert fresh.reason(400, None) is None and fresh.state_dict()["last_frame"] == 300
 
 
 def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
