@@ -96,6 +96,20 @@ def test_a_resumed_run_drops_the_curve_rows_logged_after_its_checkpoint(tmp_path
     assert train_rows and {int(r["step"]) for r in train_rows} == {10}
 
 
+def test_a_run_started_again_from_frame_0_owns_no_earlier_rows(tmp_path):
+    """A session killed before its first checkpoint, started again (resume= finds nothing to
+    load): its frame-0 evaluation and training rows are gone, not repeated beside the new."""
+    first = training.RunTracker(_cfg(10), tmp_path, None, training.Progress(), None, None,
+                                eval_policy=_Calls())  # fmt: skip
+    first.progress.frames = 8
+    first.step(_batch(), {})
+    training.RunTracker(_cfg(10), tmp_path, None, training.Progress(), None, None,
+                        eval_policy=_Calls())  # fmt: skip
+    steps, rows = _curve_steps(tmp_path / "eval_curve.csv")
+    assert steps == [0] and len([r for r in rows if r["key"] == "eval/cost_mean"]) == 1
+    assert _curve_steps(tmp_path / "train_curve.csv")[1][1:] == []
+
+
 def test_the_bar_shows_the_last_ended_episodes_not_nan(tmp_path):
     tracker = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(), None, None)
     tracker.step(_batch(), {})

@@ -47,3 +47,19 @@ def test_start_run_seeds_every_rng(tmp_path):
     after_start = _draws()
     seed_everything(5)
     assert _draws() == after_start
+
+
+def test_a_run_stopped_before_its_first_checkpoint_is_named_and_resumable(tmp_path):
+    """Killed while its first checkpoint was being written (only a staged save left): a new
+    start in that folder says so and how to go on; resume= starts it again from frame 0."""
+    from hydra import compose, initialize_config_dir
+
+    run = tmp_path / "run"
+    (run / "checkpoints" / ".stage-checkpoint-000000000200").mkdir(parents=True)
+    folder = Path(__file__).resolve().parents[2] / "recipes" / "sac"
+    with initialize_config_dir(config_dir=str(folder), version_base=None):
+        fresh = compose("quick", [f"run_dir={run}"])
+        resumed = compose("quick", [f"resume={run}"])
+    with pytest.raises(ValueError, match=r"stopped before its first checkpoint.*resume="):
+        start_run(fresh)
+    assert start_run(resumed) == run

@@ -73,10 +73,15 @@ def start_run(cfg: DictConfig) -> Path:
         run_dir = Path(cfg.resume or cfg.run_dir)
         checkpoints = run_dir / "checkpoints"
         if not cfg.resume and checkpoints.is_dir() and any(checkpoints.iterdir()):
+            published = any(p.name.startswith("checkpoint-") for p in checkpoints.iterdir())
             raise ValueError(
                 f"run_dir {run_dir} already holds a run's checkpoints; pass "
                 f"resume={run_dir} to continue it, or choose a new run_dir"
-            )
+                if published else
+                f"run_dir {run_dir} holds a run stopped before its first checkpoint was "
+                f"complete; pass resume={run_dir} to start it again from frame 0 in that "
+                "folder, or choose a new run_dir"
+            )  # fmt: skip
         if cfg.resume and not checkpoints.is_dir():
             raise ValueError(f"resume={run_dir} holds no checkpoints/ to continue from")
     except Exception:
@@ -105,7 +110,11 @@ def prepare_resume(
     frames = 0
     if cfg.resume:
         frames, values = resume_latest(run_dir, checkpoint, progress)
-        log.info("resumed %s at %d frames", run_dir, frames)
+        if values:
+            log.info("resumed %s at %d frames", run_dir, frames)
+        else:  # stopped before its first checkpoint was complete: nothing to load
+            log.warning("%s has no complete checkpoint yet: starting it again from frame 0",
+                        run_dir)  # fmt: skip
         stored = values.get("config", {})
         changed = sorted(k for k in config if k not in ("resume", "run_dir")
                          and k in stored and stored[k] != config[k])  # fmt: skip

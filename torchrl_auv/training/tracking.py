@@ -110,8 +110,8 @@ class RunTracker:
         self.checkpoint, self.rotation = checkpoint, rotation
         self.curve = Path(run_dir) / "train_curve.csv"
         self.eval_curve = Path(run_dir) / "eval_curve.csv"
-        for curve in (self.curve, self.eval_curve):  # resumed: from the checkpoint's frames on
-            truncate_curve(curve, progress.frames)
+        for curve in (self.curve, self.eval_curve):  # resumed: from the checkpoint's frames on;
+            truncate_curve(curve, progress.frames or -1)  # from frame 0: a stopped start's rows
         self.bar = tqdm.tqdm(total=cfg.collector.total_frames, initial=progress.frames,
                              unit="frame")  # fmt: skip
         self.start = time.perf_counter()
