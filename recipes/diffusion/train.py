@@ -45,7 +45,7 @@ def main(cfg: DictConfig) -> None:
     facts = {**stage.facts, **run.finish(collector)}
 
     # 3. evaluation on held-out seeds
-    policies = {"diffusion": lambda _: policy, **training.reference_policies()}
+    policies = {"diffusion": policy, **training.reference_policies()}
     print(run.evaluate(policies, title="Diffusion proposer alone", facts=facts).read_text())
 
 

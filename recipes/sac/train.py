@@ -52,7 +52,7 @@ def main(cfg: DictConfig) -> None:
 
     # evaluation on held-out seeds: the trained actor next to the expert and random actions
     facts["bytes per stored frame"] = stored_bytes or 0
-    policies = {"sac": lambda _: actor, **training.reference_policies()}
+    policies = {"sac": actor, **training.reference_policies()}
     print(run.evaluate(policies, title="SAC on data collection", facts=facts).read_text())
 
 

@@ -49,10 +49,13 @@ from torchrl_auv.training.env import (
 )
 from torchrl_auv.training.evaluation import (
     POLICIES,
+    SameRowAs,
     episode_stats,
     evaluate,
     exit_policy,
+    expert_policy,
     make_policy,
+    random_policy,
     reference_policies,
 )
 from torchrl_auv.training.first_stage import (
@@ -154,6 +157,7 @@ __all__ = [
     "RankedCandidate",
     "Run",
     "RunTracker",
+    "SameRowAs",
     "SpecState",
     "VerifiedRotation",
     "acting_actor",
@@ -179,6 +183,7 @@ __all__ = [
     "evaluation_policies",
     "evaluation_policies_from_config",
     "exit_policy",
+    "expert_policy",
     "feedback_batch",
     "finish_run",
     "first_stage_from_config",
@@ -208,6 +213,7 @@ __all__ = [
     "progress_postfix",
     "proposer_alone",
     "proposer_from_config",
+    "random_policy",
     "reference_policies",
     "resume_latest",
     "sac_from_config",

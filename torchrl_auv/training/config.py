@@ -44,6 +44,7 @@ POSITIVE_INTEGERS = (
     "proposer.alone_candidates",
     "proposer.alone_replan_every",
     "eval.every_frames",
+    "eval.workers",
     "eval.curve_envs",
     "eval.curve_steps",
 )

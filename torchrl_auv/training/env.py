@@ -111,13 +111,15 @@ def env_from_config(cfg: Mapping):
 def held_out_env(cfg: Mapping, num_envs: int, steps: int) -> Callable:
     """``(sea_state, seed) -> env`` for :func:`~torchrl_auv.training.evaluate`: ``num_envs``
     scenes of ``steps`` decisions with the run's controller, rate model, history and
-    ``env.compile_physics`` (the same numbers as eager, about 3x faster once compiled)."""
-    env, history = cfg["env"], env_history(cfg)
-    compiled = bool(env.get("compile_physics", False))
+    ``env.compile_physics`` (the same numbers as eager, about 3x faster once compiled); a
+    picklable ``functools.partial``, for evaluation workers."""
+    env = cfg["env"]
+    return partial(_held_out_scene, history=env_history(cfg), num_envs=num_envs,
+                   max_steps=steps, controller=env["controller"],
+                   rate_model=env["rate_model"],
+                   compile_physics=bool(env.get("compile_physics", False)))  # fmt: skip
 
-    def make(sea: str, seed: int):
-        return _scene_env(sea, history, seed=seed, num_envs=num_envs, max_steps=steps,
-                          controller=env["controller"], rate_model=env["rate_model"],
-                          compile_physics=compiled)  # fmt: skip
 
-    return make
+def _held_out_scene(sea_state: str, seed: int, *, history: int, **kwargs):
+    """:func:`held_out_env`'s factory (module level: picklable for evaluation workers)."""
+    return _scene_env(sea_state, history, seed=seed, **kwargs)

@@ -13,21 +13,25 @@ trained policy and the reference policies on the same held-out seeds.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import torch
 import tqdm
 from tensordict import TensorDictBase
-from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from torchrl_auv import iout
 from torchrl_auv.envs import SIM_KEY, DataCollectionEnv, ScriptedExpert
+from torchrl_auv.training.evaluation_pool import evaluate_rows
 
 __all__ = [
     "POLICIES",
+    "SameRowAs",
     "episode_stats",
     "evaluate",
     "exit_policy",
+    "expert_policy",
     "make_policy",
+    "random_policy",
     "reference_policies",
 ]
 
@@ -121,50 +125,76 @@ def episode_stats(
     return out
 
 
+@dataclass(frozen=True)
+class SameRowAs:
+    """A row that is another row of the same evaluation by construction, copied from it
+    instead of evaluated again: e.g. ``OA`` (rank 0 of the selector's ranking executed alone)
+    is the framework's own choice when the actor's action does not compete."""
+
+    name: str
+
+
 def evaluate(
     make_env: Callable[[str, int], DataCollectionEnv],
-    policies: Mapping[str, Callable[[DataCollectionEnv], object]],
+    policies: Mapping[str, Callable[[DataCollectionEnv], object] | SameRowAs],
     sea_states: Sequence[str],
     *,
     seed: int,
     steps: int,
     progress: bool = False,
+    workers: int = 1,
 ) -> list[dict]:
     """Every policy in every sea state on the same held-out scenes, deterministic actions.
 
     Args:
         make_env: ``(sea_state, seed) -> env``; called anew per policy so every policy sees
             the same scenes.
-        policies: name -> ``env -> policy`` (a TensorDict module, or ``None`` for random
-            actions); e.g. ``{"trained": lambda env: actor, **reference_policies()}``.
+        policies: name -> a policy (a module, e.g. a trained actor), ``env -> policy`` (a
+            policy built on the row's env, or ``None`` for random actions), or
+            :class:`SameRowAs` another name (its row copied); e.g. ``{"trained": actor,
+            **reference_policies()}``.
         sea_states: presets to evaluate in.
         seed: the evaluation seed (keep it apart from the training seeds): the scenes' and,
             through torch's global generator (forked, restored after), the random actions'
             and the proposer's samples.
         steps: decisions per episode.
         progress: show a progress bar (decisions of every row, the row being evaluated).
+        workers: rows evaluated side by side in this many worker processes (the same
+            numbers; ``make_env`` and the policies must then be picklable, see
+            :mod:`~torchrl_auv.training.evaluation_pool`).
 
     Returns:
         one row per (sea state, policy): ``{"sea_state", "policy", **episode_stats}``.
     """
-    rows = []
-    bar = tqdm.tqdm(total=len(sea_states) * len(policies) * steps, unit="decision",
-                    desc="evaluation", disable=not progress)  # fmt: skip
-    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad(), bar:
-        for sea_state in sea_states:
-            for name, build in policies.items():
-                bar.set_postfix_str(f"{sea_state} {name}")
-                env = make_env(sea_state, seed)
-                with torch.random.fork_rng():  # random actions and proposals: seeded too
-                    torch.manual_seed(seed)
-                    stats = episode_stats(env, build(env), steps,
-                                          callback=lambda *_: bar.update())  # fmt: skip
-                rows.append({"sea_state": sea_state, "policy": name, **stats})
-                bar.update(len(rows) * steps - bar.n)  # rollout's callback skips the last step
-    return rows
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    evaluated = [name for name, build in policies.items() if not isinstance(build, SameRowAs)]
+    for name, build in policies.items():
+        if isinstance(build, SameRowAs) and build.name not in evaluated:
+            raise ValueError(f"policies[{name!r}] is the row of {build.name!r}, which is not "
+                             f"an evaluated row of policies (those are {evaluated})")  # fmt: skip
+    jobs = [(sea, name, build) for sea in sea_states for name, build in policies.items()
+            if not isinstance(build, SameRowAs)]  # fmt: skip
+    bar = tqdm.tqdm(total=len(jobs) * steps, unit="decision", desc="evaluation",
+                    disable=not progress)  # fmt: skip
+    with bar:
+        rows = evaluate_rows(make_env, jobs, seed=seed, steps=steps, workers=workers, bar=bar)
+    found = {(row["sea_state"], row["policy"]): row for row in rows}
+    return [found[sea, name] if not isinstance(build, SameRowAs)
+            else {**found[sea, build.name], "policy": name}
+            for sea in sea_states for name, build in policies.items()]  # fmt: skip
+
+
+def expert_policy(env: DataCollectionEnv) -> ScriptedExpert:
+    """The scripted expert of ``env`` (of its base env when wrapped)."""
+    return ScriptedExpert(getattr(env, "base_env", env))
+
+
+def random_policy(env: DataCollectionEnv) -> None:
+    """Uniform random actions (``None``: ``env.rollout``'s own)."""
+    return None
 
 
 def reference_policies() -> dict[str, Callable[[DataCollectionEnv], object]]:
     """The reference rows of every evaluation: the scripted expert and random actions."""
-    return {"expert": lambda env: ScriptedExpert(getattr(env, "base_env", env)),
-            "random": lambda env: None}  # fmt: skip
+    return {"expert": expert_policy, "random": random_policy}

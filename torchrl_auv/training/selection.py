@@ -25,7 +25,7 @@ from torchrl.modules import ProbabilisticActor
 
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss
-from torchrl_auv.training.evaluation import reference_policies
+from torchrl_auv.training.evaluation import SameRowAs, reference_policies
 from torchrl_auv.training.keys import ACTION, ACTOR_ACTION, AGENTS, OBSERVATION
 
 __all__ = [
@@ -126,17 +126,20 @@ def evaluation_policies(
     """The diffusion recipes' evaluation rows: the framework (``name``), each rank of its
     selector's ranking executed on its own (``OA`` = rank 0, ``CA1`` ... over the K candidates
     and, when the selector scores it, the actor's own action; ``ranks=False``: none of these,
-    which cost one evaluation each), the actor alone (``RL``, with an ``actor``) and the
-    proposer alone (:func:`proposer_alone` with ``pick``, ``alone_candidates`` and
-    ``alone_replan_every``)."""
+    which cost one evaluation each; ``OA`` is the framework's own row when the actor's action
+    does not compete: :class:`~torchrl_auv.training.evaluation.SameRowAs`), the actor alone
+    (``RL``, with an ``actor``) and the proposer alone (:func:`proposer_alone` with ``pick``,
+    ``alone_candidates`` and ``alone_replan_every``)."""
     alone = proposer_alone(proposer, pick, num_candidates=alone_candidates,
                            replan_every=alone_replan_every)  # fmt: skip
-    rows = {name: lambda _: policy, "proposer alone": lambda _: alone}
+    rows = {name: policy, "proposer alone": alone}
     if actor is not None:
-        rows["RL"] = lambda _: actor
-    slots = proposer.num_candidates + bool(policy[-1].include_actor_action) if ranks else 0
-    for rank in range(slots):
-        rows["OA" if rank == 0 else f"CA{rank}"] = lambda _, r=rank: RankedCandidate(policy, r)
+        rows["RL"] = actor
+    with_actor = bool(policy[-1].include_actor_action)
+    for rank in range(proposer.num_candidates + with_actor if ranks else 0):
+        rows["OA" if rank == 0 else f"CA{rank}"] = RankedCandidate(policy, rank)
+    if ranks and not with_actor:  # rank 0 is what the framework executes: the same row
+        rows["OA"] = SameRowAs(name)
     return rows
 
 

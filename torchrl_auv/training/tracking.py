@@ -135,7 +135,7 @@ class RunTracker:
         cfg, began = self.cfg, time.perf_counter()
 
         curve_env = held_out_env(cfg, cfg.eval.curve_envs, cfg.eval.curve_steps)
-        row = evaluate(curve_env, {"policy": lambda _: self.eval_policy}, [cfg.env.sea_state],
+        row = evaluate(curve_env, {"policy": self.eval_policy}, [cfg.env.sea_state],
                        seed=cfg.eval.seed, steps=cfg.eval.curve_steps)[0]  # fmt: skip
         seconds = time.perf_counter() - began
         self.eval_seconds += seconds

@@ -1,0 +1,113 @@
+"""Evaluation rows in worker processes: one row (a policy in a sea state) per job.
+
+A row's numbers depend only on its scenes (``make_env(sea_state, seed)``), its policy and the
+seed, so rows can be evaluated side by side: :func:`evaluate_rows` runs them on ``workers``
+``spawn`` processes (each with ``torch.get_num_threads()`` of the parent's threads) and
+returns them in the order given, the same numbers as one after another (a test compares
+them). A worker compiles what the rows compile (``env.compile_physics``, the proposer's
+denoising step) once and keeps it for its next rows.
+
+Everything a job holds is pickled into the worker: ``make_env`` and each row's policy must be
+picklable (a module, or ``functools.partial`` of a module-level function; not a lambda or a
+nested function); one that is not is named before any work.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import pickle
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+import torch
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+__all__ = ["evaluate_row", "evaluate_rows"]
+
+_TICKS = None  # a worker's shared decision counter (set by _start_worker)
+
+
+def evaluate_row(make_env, build, sea_state: str, name: str, *, seed: int, steps: int,
+                 tick: Callable | None = None) -> dict:  # fmt: skip
+    """One row: ``build`` (a policy module, or ``env -> policy``) on ``make_env(sea_state,
+    seed)`` rolled out for ``steps`` decisions with
+    deterministic actions, torch's global generator seeded with ``seed`` (forked: restored
+    after), ``tick()`` after every decision."""
+    from torchrl_auv.training.evaluation import episode_stats  # evaluation imports this module
+
+    env = make_env(sea_state, seed)
+    policy = build if isinstance(build, torch.nn.Module) else build(env)
+    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad(), \
+            torch.random.fork_rng():  # fmt: skip
+        torch.manual_seed(seed)  # random actions and proposals: seeded too
+        stats = episode_stats(env, policy, steps,
+                              callback=None if tick is None else lambda *_: tick())  # fmt: skip
+    return {"sea_state": sea_state, "policy": name, **stats}
+
+
+def _start_worker(threads: int, ticks) -> None:
+    global _TICKS
+    torch.set_num_threads(threads)
+    _TICKS = ticks
+
+
+def _tick() -> None:
+    with _TICKS.get_lock():
+        _TICKS.value += 1
+
+
+def _worker_row(job: tuple) -> dict:
+    make_env, build, sea_state, name, seed, steps = job
+    row = evaluate_row(make_env, build, sea_state, name, seed=seed, steps=steps, tick=_tick)
+    _tick()  # the rollout's callback skips the last decision
+    return row
+
+
+def _check_picklable(make_env, jobs: Sequence[tuple]) -> None:
+    for what, obj in [("make_env", make_env), *((f"the policy of row {name!r}", build)
+                                                for _, name, build in jobs)]:  # fmt: skip
+        try:
+            pickle.dumps(obj)
+        except Exception as error:
+            raise ValueError(
+                f"workers > 1 evaluates rows in worker processes, which needs {what} to be "
+                f"picklable (functools.partial of a module-level function, not a lambda): "
+                f"{error}"
+            ) from error
+
+
+def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, workers: int,
+                  bar=None) -> list[dict]:  # fmt: skip
+    """``jobs``: ``(sea_state, name, build)``; the rows in that order (module docstring).
+    ``bar``: a tqdm bar advanced by every decision of every row."""
+    if workers == 1 or len(jobs) <= 1:
+        rows = []
+        for sea_state, name, build in jobs:
+            if bar is not None:
+                bar.set_postfix_str(f"{sea_state} {name}")
+            tick = None if bar is None else lambda: bar.update()
+            rows.append(evaluate_row(make_env, build, sea_state, name, seed=seed,
+                                     steps=steps, tick=tick))  # fmt: skip
+            if bar is not None:
+                bar.update(len(rows) * steps - bar.n)  # the callback skips the last decision
+        return rows
+    _check_picklable(make_env, jobs)
+    context = multiprocessing.get_context("spawn")
+    ticks = context.Value("q", 0)
+    with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context,
+                             initializer=_start_worker,
+                             initargs=(torch.get_num_threads(), ticks)) as pool:  # fmt: skip
+        futures = [pool.submit(_worker_row, (make_env, build, sea_state, name, seed, steps))
+                   for sea_state, name, build in jobs]  # fmt: skip
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+            failed = [future for future in done if future.exception() is not None]
+            if failed:  # the first failure ends the evaluation; rows not started are dropped
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise failed[0].exception()
+            if bar is not None:
+                bar.set_postfix_str(f"{len(jobs) - len(pending)}/{len(jobs)} rows, "
+                                    f"{workers} workers")  # fmt: skip
+                bar.update(ticks.value - bar.n)
+        return [future.result() for future in futures]
