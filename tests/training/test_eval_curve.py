@@ -122,3 +122,44 @@ def test_the_bar_shows_the_last_ended_episodes_not_nan(tmp_path):
     tracker.step(_batch(), {})  # no episode ended in this batch: the bar keeps the last ones
     assert "sdr=3.0" in tracker.bar.postfix and "ssn=3.0" in tracker.bar.postfix
     assert "nan" not in tracker.bar.postfix
+
+
+class _Saves:
+    """A rotation that records, at each save, the frame and the curve points logged by then."""
+
+    def __init__(self, curve):
+        self.curve, self.saves = curve, []
+
+    def save(self, checkpoint, step):
+        logged = _curve_steps(self.curve)[0] if self.curve.exists() else []
+        self.saves.append((step, logged))
+
+
+def test_background_curve_points_are_the_foreground_ones_and_checkpoints_hold_them(tmp_path):
+    """eval.curve_background: the points come back from a worker process with the numbers the
+    loop's own evaluation gives, and a checkpoint at F is saved only once every point <= F
+    is logged."""
+    env = training.held_out_env(_cfg(10), 1, 4)("ideal", 0)
+    actor = training.make_actor(env, (8,))  # picklable, deterministic
+    runs = {}
+    for background in (False, True):
+        cfg = _cfg(10)
+        cfg.eval.curve_background = background
+        cfg.checkpoint.every_frames = 8
+        folder = tmp_path / str(background)
+        folder.mkdir()
+        rotation = _Saves(folder / "eval_curve.csv")
+        tracker = training.RunTracker(cfg, folder, None, training.Progress(), None, rotation,
+                                      eval_policy=actor)  # fmt: skip
+        for frames in (8, 16, 24, 32, 40):
+            tracker.progress.frames = frames
+            tracker.step(_batch(), {})
+        tracker.finish(type("Collector", (), {"shutdown": lambda self: None})())
+        points = [0, 16, 24, 32, 40]  # frame 0, then where the count passed a multiple of 10
+        for frames, logged in rotation.saves:
+            assert [p for p in points if p <= frames] == [s for s in logged if s <= frames]
+        steps, rows = _curve_steps(folder / "eval_curve.csv")
+        assert steps == points and rotation.saves[-1][0] == 40
+        runs[background] = {(r["step"], r["key"]): r["value"] for r in rows
+                            if r["key"].startswith("eval/")}  # fmt: skip
+    assert runs[True] == runs[False]

@@ -66,6 +66,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "proposer.lr_schedule": LR_SCHEDULES,
         "selection.include_actor": (True, False),
         "eval.ranks": (True, False),
+        "eval.curve_background": (True, False),
         "optim.loss_function": ("l2", "smooth_l1"),
         "lyapunov.cost": ("task", "stability"),
     }

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import multiprocessing
 import pickle
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 import torch
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-__all__ = ["evaluate_row", "evaluate_rows"]
+__all__ = ["RowWorker", "evaluate_row", "evaluate_rows"]
 
 _TICKS = None  # a worker's shared decision counter (set by _start_worker)
 
@@ -111,3 +112,50 @@ def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, wor
                                     f"{workers} workers")  # fmt: skip
                 bar.update(ticks.value - bar.n)
         return [future.result() for future in futures]
+
+
+def _pickled_row(make_env, policy_bytes: bytes, sea_state: str, seed: int, steps: int):
+    began = time.perf_counter()
+    row = evaluate_row(make_env, pickle.loads(policy_bytes), sea_state, "policy", seed=seed,
+                       steps=steps)  # fmt: skip
+    return row, time.perf_counter() - began
+
+
+class RowWorker:
+    """One ``spawn`` worker process that evaluates rows while the caller goes on (e.g. a
+    learning curve's points while training continues on the other core). :meth:`submit`
+    pickles the policy at once, so the row evaluates the weights of that moment whatever
+    training does next; :meth:`results` hands back finished rows in the order submitted.
+
+    Args:
+        make_env: ``(sea_state, seed) -> env``, picklable (e.g.
+            :func:`~torchrl_auv.training.held_out_env`).
+        sea_state, seed, steps: the rows' scenes and length.
+    """
+
+    def __init__(self, make_env, sea_state: str, *, seed: int, steps: int) -> None:
+        _check_picklable(make_env, [])
+        context = multiprocessing.get_context("spawn")
+        self.pool = ProcessPoolExecutor(1, mp_context=context, initializer=_start_worker,
+                                        initargs=(torch.get_num_threads(), None))  # fmt: skip
+        self.job = (make_env, sea_state, seed, steps)
+        self.pending: list[tuple[int, object]] = []
+
+    def submit(self, step: int, policy) -> None:
+        """Evaluate ``policy`` as it is now, labelled ``step``."""
+        make_env, sea_state, seed, steps = self.job
+        self.pending.append((step, self.pool.submit(_pickled_row, make_env, pickle.dumps(policy),
+                                                    sea_state, seed, steps)))  # fmt: skip
+
+    def results(self, wait: bool = False) -> list[tuple[int, dict, float]]:
+        """``(step, row, seconds)`` of the rows finished so far (``wait``: of every row
+        submitted), oldest first; a row that failed raises here."""
+        out = []
+        while self.pending and (wait or self.pending[0][1].done()):
+            step, future = self.pending.pop(0)
+            out.append((step, *future.result()))
+        return out
+
+    def close(self) -> None:
+        """Stop the worker (rows still pending are dropped)."""
+        self.pool.shutdown(wait=False, cancel_futures=True)

@@ -25,6 +25,7 @@ from tensordict import TensorDictBase
 
 from torchrl_auv.training.env import held_out_env
 from torchrl_auv.training.evaluation import evaluate
+from torchrl_auv.training.evaluation_pool import RowWorker
 from torchrl_auv.training.loggers import log_metrics, truncate_curve
 from torchrl_auv.training.summary import SUMMARY_COLUMNS
 
@@ -101,7 +102,11 @@ class RunTracker:
     sea (seed ``cfg.eval.seed``, the same scenes every time) for ``cfg.eval.curve_steps``
     decisions, deterministic actions (:func:`evaluate`). Each metric of the summary table is
     logged as ``eval/<metric>`` and written to ``eval_curve.csv`` (``step,key,value``); the
-    time it takes is logged as ``time/eval_s`` and left out of the frames/s.
+    time it takes is logged as ``time/eval_s`` and left out of the frames/s. With
+    ``cfg.eval.curve_background`` the points are evaluated in a worker process while training
+    goes on (the policy pickled at the point's frame: the same numbers) and logged at their
+    frame once back; a checkpoint due while one is out waits for it (a checkpoint at F holds
+    every point <= F), and :meth:`finish` waits for the last.
     """
 
     def __init__(self, cfg: DictConfig, run_dir: Path, logger, progress, checkpoint, rotation,
@@ -119,8 +124,12 @@ class RunTracker:
         self.eval_policy, self.eval_seconds = eval_policy, 0.0
         self.last_episode: dict[str, float] = {}  # the bar's SDR/SSN: the last ended episodes
         self.every = OmegaConf.select(cfg, "eval.every_frames", default=None) or 0
+        self.worker = None  # eval.curve_background: the curve's points in a worker process
         if eval_policy is not None and self.every:
             self.evaluated_block = progress.frames // self.every
+            if OmegaConf.select(cfg, "eval.curve_background", default=False):
+                self.worker = RowWorker(self._curve_env(), cfg.env.sea_state,
+                                        seed=cfg.eval.seed, steps=cfg.eval.curve_steps)  # fmt: skip
             if progress.frames == 0:
                 self.evaluate_curve()
 
@@ -130,19 +139,39 @@ class RunTracker:
         elapsed = max(time.perf_counter() - self.start - self.eval_seconds, 1e-9)
         return (self.progress.frames - self.frames_at_start) / elapsed
 
-    def evaluate_curve(self) -> dict[str, float]:
-        """One point of the learning curve (class docstring); returns its metrics."""
-        cfg, began = self.cfg, time.perf_counter()
+    def _curve_env(self):
+        return held_out_env(self.cfg, self.cfg.eval.curve_envs, self.cfg.eval.curve_steps)
 
-        curve_env = held_out_env(cfg, cfg.eval.curve_envs, cfg.eval.curve_steps)
-        row = evaluate(curve_env, {"policy": self.eval_policy}, [cfg.env.sea_state],
+    def evaluate_curve(self) -> dict[str, float] | None:
+        """One point of the learning curve (class docstring); returns its metrics, or
+        ``None`` when it went to the background worker (logged once it is back)."""
+        cfg, began = self.cfg, time.perf_counter()
+        if self.worker is not None:
+            self.worker.submit(self.progress.frames, self.eval_policy)
+            self.eval_seconds += time.perf_counter() - began  # pickling the policy
+            return None
+        row = evaluate(self._curve_env(), {"policy": self.eval_policy}, [cfg.env.sea_state],
                        seed=cfg.eval.seed, steps=cfg.eval.curve_steps)[0]  # fmt: skip
         seconds = time.perf_counter() - began
         self.eval_seconds += seconds
+        return self._log_curve(self.progress.frames, row, seconds)
+
+    def _log_curve(self, frames: int, row: dict, seconds: float) -> dict[str, float]:
         metrics = {f"eval/{key}": row[key] for key in SUMMARY_COLUMNS}
         metrics["time/eval_s"] = seconds
-        log_metrics(self.logger, metrics, self.progress.frames, curve=self.eval_curve)
+        log_metrics(self.logger, metrics, frames, curve=self.eval_curve)
         return metrics
+
+    def _collect_curve(self, wait: bool = False) -> None:
+        """Log the background points that are back (``wait``: all of them; the time spent
+        waiting is left out of the frames/s)."""
+        if self.worker is None:
+            return
+        began = time.perf_counter()
+        for frames, row, seconds in self.worker.results(wait=wait):
+            self._log_curve(frames, row, seconds)
+        if wait:
+            self.eval_seconds += time.perf_counter() - began
 
     def step(self, data: TensorDictBase, metrics: dict[str, float], spec=None) -> None:
         """After a batch: add the batch's metrics and the rate, log, advance the bar, save a
@@ -156,12 +185,16 @@ class RunTracker:
         self.last_episode.update({k: v for k, v in metrics.items()
                                   if k.startswith("train/episode_")})  # fmt: skip
         self.bar.set_postfix(progress_postfix({**metrics, **self.last_episode}, spec))
+        self._collect_curve()
         if self.eval_policy is not None and self.every:
             block = frames // self.every
             if block > self.evaluated_block:
                 self.evaluated_block = block
                 self.evaluate_curve()
-        if frames - self.last_saved >= self.cfg.checkpoint.every_frames:
+        # a checkpoint at F holds every curve point <= F: with one still in the background
+        # the save waits for the first batch after it is back
+        pending = self.worker is not None and self.worker.pending
+        if frames - self.last_saved >= self.cfg.checkpoint.every_frames and not pending:
             self.rotation.save(self.checkpoint, step=frames)
             self.last_saved = frames
 
@@ -169,6 +202,9 @@ class RunTracker:
         """Shut the collector down, save the final checkpoint; returns the session's facts
         (frames, wall time, training frames/s, peak memory) for the summary."""
         collector.shutdown()
+        self._collect_curve(wait=True)
+        if self.worker is not None:
+            self.worker.close()
         self.bar.close()
         self.rotation.save(self.checkpoint, step=self.progress.frames)
         return {"frames": self.progress.frames,
