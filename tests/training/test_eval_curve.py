@@ -163,3 +163,14 @@ def test_background_curve_points_are_the_foreground_ones_and_checkpoints_hold_th
         runs[background] = {(r["step"], r["key"]): r["value"] for r in rows
                             if r["key"].startswith("eval/")}  # fmt: skip
     assert runs[True] == runs[False]
+
+
+def test_a_session_that_trains_nothing_reports_no_rate_rather_than_zero(tmp_path):
+    done = type("Collector", (), {"shutdown": lambda self: None})()
+    rotation = _Saves(tmp_path / "eval_curve.csv")
+    resumed = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(frames=40), None,
+                                  rotation)  # fmt: skip
+    assert resumed.finish(done)["training frames/s"].startswith("none trained")
+    fresh = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(), None, rotation)
+    fresh.progress.frames = 8
+    assert fresh.finish(done)["training frames/s"] > 0

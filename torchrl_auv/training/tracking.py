@@ -209,4 +209,6 @@ class RunTracker:
         self.rotation.save(self.checkpoint, step=self.progress.frames)
         return {"frames": self.progress.frames,
                 "wall time this session (s)": time.perf_counter() - self.start,
-                "training frames/s": self.rate(), "peak RSS (MB)": peak_rss_mb()}  # fmt: skip
+                "training frames/s": self.rate() if self.progress.frames > self.frames_at_start
+                else "none trained in this session (resumed at its last frame)",
+                "peak RSS (MB)": peak_rss_mb()}  # fmt: skip
