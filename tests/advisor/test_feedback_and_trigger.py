@@ -218,6 +218,11 @@ def test_consultation_and_failure_counts_survive_a_checkpoint(tmp_path):
     assert resume_latest(tmp_path, ckpt, progress)[0] == 10
     second.step(20, TrainingFeedback(collisions=1.0), _Loss())
     assert second.consultations == 3 and len(second.records) == 1
+    # the decision log says where the resumed session took over (decisions logged above it
+    # with a later frame were rolled back with the session that made them)
+    lines = [json.loads(line) for line in (tmp_path / "a.jsonl").read_text().splitlines()]
+    assert [line.get("event") for line in lines] == [None, None, "restored", None]
+    assert lines[2]["last_consultation_frame"] == 10 and lines[2]["consultations"] == 2
     assert second.failure_summary() == "advisor raised RuntimeError: boom: # s (x3)"
     # a checkpoint written before the counts were kept still loads
     third = trigger()

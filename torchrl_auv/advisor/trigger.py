@@ -12,7 +12,10 @@ previous consultation. An accepted decision that differs from the loss's spec is
 
 **Decision log.** Every consultation appends one JSON line to ``log_path`` (never truncated):
 frame, trigger, task text, feedback, the spec before, the raw answer, the parsed decision,
-whether it was applied, the reasons and the latency. With a TorchRL ``WandbLogger`` the log is
+whether it was applied, the reasons and the latency. A run resumed from a checkpoint appends an
+``"event": "restored"`` line (the last consultation the checkpoint holds and the count): the
+decisions above it with a later frame were made by a session that stopped before its next
+checkpoint, and were rolled back with it. With a TorchRL ``WandbLogger`` the log is
 also sent as a ``wandb.Table`` (``advisor/decisions``); any TorchRL logger gets
 ``advisor/alpha`` and ``advisor/form_index`` scalars (the spec in force after the consultation;
 the index is the form's place in :data:`~torchrl_auv.advisor.FORM_ORDER`, gentle to
@@ -114,6 +117,10 @@ class AdvisorTrigger:
         # checkpoints written before the counts were kept hold only the frame
         self.consultations = int(state.get("consultations", 0))
         self.failures = {str(k): int(v) for k, v in state.get("failures", {}).items()}
+        with self.log_path.open("a", encoding="utf-8") as f:  # where a resumed session starts
+            f.write(json.dumps({"time": time.time(), "event": "restored",
+                                "last_consultation_frame": last,
+                                "consultations": self.consultations}) + "\n")  # fmt: skip
 
     def reason(self, frame: int, feedback: TrainingFeedback | None) -> str | None:
         """Why to consult now (``"start"``, a threshold), or ``None``."""
