@@ -13,7 +13,8 @@ architecture (untrained: the time per decision does not depend on the weights), 
   (OA evaluated again), the 9 rows with OA copied, and those 9 in 2 worker processes
   (``eval.workers=2``, the worker start-up and compilation included).
 
-``--decisions`` decisions per row are timed and scaled to the paper's 1000 (the worker
+``--decisions`` decisions per row (default 100; ``--quick``: 10, a smoke run whose
+extrapolation means little) are timed and scaled to the paper's 1000 (the worker
 start-up, timed on 1-decision rows, is not scaled), and the paper's 3 seas; the run's share
 is (final evaluation + curve points the loop waits for) / (that + 300 batches of training,
 first stage cached). Before: 13 points in the loop (every 25,000 of 300,000 frames); after:
@@ -34,8 +35,15 @@ PAPER_FRAMES, CURVE_POINTS, SEAS, FULL_DECISIONS = 300_000, 13, 3, 1000
 
 
 def _arguments(parser) -> None:
-    parser.add_argument("--decisions", type=int, default=100, help="decisions per timed row")
-    parser.add_argument("--batches", type=int, default=3, help="timed training batches")
+    parser.add_argument(
+        "--decisions",
+        type=int,
+        default=None,
+        help="decisions per timed row (default 100; --quick: 10)",
+    )
+    parser.add_argument(
+        "--batches", type=int, default=None, help="timed training batches (default 3; --quick: 1)"
+    )
 
 
 def _pieces():
@@ -94,6 +102,8 @@ def main() -> None:
     from torchrl_auv import training
     from torchrl_auv.training.evaluation_pool import RowWorker
 
+    args.decisions = args.decisions or (10 if args.quick else 100)
+    args.batches = args.batches or (1 if args.quick else 3)
     cfg, env, actor, proposer, learner, policy = _pieces()
     d, scale = args.decisions, FULL_DECISIONS / args.decisions
     rows = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor,
