@@ -59,3 +59,40 @@ def test_a_policy_that_cannot_reach_a_worker_is_named_and_a_missing_row_too():
                           seed=0, steps=STEPS)  # fmt: skip
     with pytest.raises(ValueError, match="workers must be an int >= 1, got 0"):
         training.evaluate(make_env, policies, ["ideal"], seed=0, steps=STEPS, workers=0)
+
+
+def test_a_worker_ends_when_its_parent_is_killed():
+    """kill -9 of the process that owns an evaluation worker leaves no worker behind."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = (
+        "import os, time\n"
+        "from omegaconf import OmegaConf\n"
+        "from torchrl_auv import training\n"
+        "from torchrl_auv.training.evaluation_pool import RowWorker\n"
+        "if __name__ == '__main__':\n"
+        "    cfg = OmegaConf.create({'env': {'sea_state': 'ideal', 'controller': 'pid',\n"
+        "                                    'rate_model': 'shannon'}})\n"
+        "    worker = RowWorker(training.held_out_env(cfg, 1, 2), 'ideal', seed=0, steps=2)\n"
+        "    print(worker.pool.submit(os.getpid).result(), flush=True)\n"
+        "    time.sleep(600)\n"
+    )  # fmt: skip
+    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
+                              env={**os.environ, "OMP_NUM_THREADS": "1"})  # fmt: skip
+    worker = int(parent.stdout.readline())
+    os.kill(worker, 0)  # alive while its parent lives
+    parent.send_signal(signal.SIGKILL)
+    parent.wait()
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:
+        try:
+            os.kill(worker, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.2)
+    os.kill(worker, signal.SIGKILL)
+    raise AssertionError(f"worker {worker} outlived its killed parent by 20 s")

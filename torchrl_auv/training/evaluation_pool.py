@@ -5,7 +5,8 @@ seed, so rows can be evaluated side by side: :func:`evaluate_rows` runs them on 
 ``spawn`` processes (each with ``torch.get_num_threads()`` of the parent's threads) and
 returns them in the order given, the same numbers as one after another (a test compares
 them). A worker compiles what the rows compile (``env.compile_physics``, the proposer's
-denoising step) once and keeps it for its next rows.
+denoising step) once and keeps it for its next rows, and ends itself within a second of its
+parent's death (a ``kill -9`` of the training process leaves no worker behind).
 
 Everything a job holds is pickled into the worker: ``make_env`` and each row's policy must be
 picklable (a module, or ``functools.partial`` of a module-level function; not a lambda or a
@@ -15,7 +16,9 @@ nested function); one that is not is named before any work.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import pickle
+import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -50,6 +53,16 @@ def _start_worker(threads: int, ticks) -> None:
     global _TICKS
     torch.set_num_threads(threads)
     _TICKS = ticks
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _exit_with_parent(parent: int, every_s: float = 0.5) -> None:
+    """End this worker once its parent is gone: a parent killed with SIGKILL never shuts the
+    pool down, and the worker, which holds its own end of the job queue, would wait on it
+    forever (measured: orphans still alive 180 s after a kill -9)."""
+    while os.getppid() == parent:
+        time.sleep(every_s)
+    os._exit(1)
 
 
 def _tick() -> None:
