@@ -70,24 +70,27 @@ def _tick() -> None:
         _TICKS.value += 1
 
 
-def _worker_row(job: tuple) -> dict:
-    make_env, build, sea_state, name, seed, steps = job
-    row = evaluate_row(make_env, build, sea_state, name, seed=seed, steps=steps, tick=_tick)
-    _tick()  # the rollout's callback skips the last decision
-    return row
+def _dumps(what: str, obj) -> bytes:
+    """``obj`` pickled once, for a worker; one that cannot be is named."""
+    try:
+        return pickle.dumps(obj)
+    except Exception as error:
+        raise ValueError(
+            f"workers > 1 evaluates rows in worker processes, which needs {what} to be "
+            f"picklable (functools.partial of a module-level function, not a lambda): {error}"
+        ) from error
 
 
-def _check_picklable(make_env, jobs: Sequence[tuple]) -> None:
-    for what, obj in [("make_env", make_env), *((f"the policy of row {name!r}", build)
-                                                for _, name, build in jobs)]:  # fmt: skip
-        try:
-            pickle.dumps(obj)
-        except Exception as error:
-            raise ValueError(
-                f"workers > 1 evaluates rows in worker processes, which needs {what} to be "
-                f"picklable (functools.partial of a module-level function, not a lambda): "
-                f"{error}"
-            ) from error
+def _pickled_row(make_env, policy_bytes: bytes, sea_state: str, name: str, seed: int,
+                 steps: int) -> tuple[dict, float]:  # fmt: skip
+    """In a worker: one row of a pickled policy and the seconds it took; with a shared
+    counter (:func:`evaluate_rows`), every decision counted."""
+    began, tick = time.perf_counter(), None if _TICKS is None else _tick
+    row = evaluate_row(make_env, pickle.loads(policy_bytes), sea_state, name, seed=seed,
+                       steps=steps, tick=tick)  # fmt: skip
+    if tick is not None:
+        tick()  # the rollout's callback skips the last decision
+    return row, time.perf_counter() - began
 
 
 def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, workers: int,
@@ -105,14 +108,15 @@ def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, wor
             if bar is not None:
                 bar.update(len(rows) * steps - bar.n)  # the callback skips the last decision
         return rows
-    _check_picklable(make_env, jobs)
+    _dumps("make_env", make_env)
+    pickled = {name: _dumps(f"the policy of row {name!r}", build) for _, name, build in jobs}
     context = multiprocessing.get_context("spawn")
     ticks = context.Value("q", 0)
     with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context,
                              initializer=_start_worker,
                              initargs=(torch.get_num_threads(), ticks)) as pool:  # fmt: skip
-        futures = [pool.submit(_worker_row, (make_env, build, sea_state, name, seed, steps))
-                   for sea_state, name, build in jobs]  # fmt: skip
+        futures = [pool.submit(_pickled_row, make_env, pickled[name], sea_state, name, seed,
+                               steps) for sea_state, name, _ in jobs]  # fmt: skip
         pending = set(futures)
         while pending:
             done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
@@ -124,14 +128,7 @@ def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, wor
                 bar.set_postfix_str(f"{len(jobs) - len(pending)}/{len(jobs)} rows, "
                                     f"{workers} workers")  # fmt: skip
                 bar.update(ticks.value - bar.n)
-        return [future.result() for future in futures]
-
-
-def _pickled_row(make_env, policy_bytes: bytes, sea_state: str, seed: int, steps: int):
-    began = time.perf_counter()
-    row = evaluate_row(make_env, pickle.loads(policy_bytes), sea_state, "policy", seed=seed,
-                       steps=steps)  # fmt: skip
-    return row, time.perf_counter() - began
+        return [future.result()[0] for future in futures]
 
 
 class RowWorker:
@@ -147,7 +144,7 @@ class RowWorker:
     """
 
     def __init__(self, make_env, sea_state: str, *, seed: int, steps: int) -> None:
-        _check_picklable(make_env, [])
+        _dumps("make_env", make_env)
         context = multiprocessing.get_context("spawn")
         self.pool = ProcessPoolExecutor(1, mp_context=context, initializer=_start_worker,
                                         initargs=(torch.get_num_threads(), None))  # fmt: skip
@@ -157,8 +154,9 @@ class RowWorker:
     def submit(self, step: int, policy) -> None:
         """Evaluate ``policy`` as it is now, labelled ``step``."""
         make_env, sea_state, seed, steps = self.job
-        self.pending.append((step, self.pool.submit(_pickled_row, make_env, pickle.dumps(policy),
-                                                    sea_state, seed, steps)))  # fmt: skip
+        self.pending.append((step, self.pool.submit(_pickled_row, make_env,
+                                                    _dumps("the policy", policy), sea_state,
+                                                    "policy", seed, steps)))  # fmt: skip
 
     def results(self, wait: bool = False) -> list[tuple[int, dict, float]]:
         """``(step, row, seconds)`` of the rows finished so far (``wait``: of every row
