@@ -73,6 +73,8 @@ def main(cfg: DictConfig) -> None:
                                                         proposer)  # fmt: skip
     print(run.evaluate(policies, title="Diffusion + LAC", facts=facts).read_text())
     print("\n".join(f"plot: {path}" for path in report.plot_run(cfg, run.dir, policy)))
+    # the executed candidate's Lyapunov value along held-out episodes (Fig. 10-11)
+    print(f"Lyapunov trace: {report.write_lyapunov_trace(cfg, run.dir, policy)}")
 
 
 if __name__ == "__main__":

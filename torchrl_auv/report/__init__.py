@@ -9,6 +9,11 @@ from __future__ import annotations
 
 from torchrl_auv.report.curves import plot_learning_curve, read_curve
 from torchrl_auv.report.episode import plot_episode
+from torchrl_auv.report.lyapunov_trace import (
+    executed_lyapunov,
+    lyapunov_trace,
+    write_lyapunov_trace,
+)
 from torchrl_auv.report.proposals import (
     plot_candidate_stages,
     plot_pretraining_loss,
@@ -19,6 +24,8 @@ from torchrl_auv.report.tracking import KalmanObserver, plot_tracking, tracking_
 
 __all__ = [
     "KalmanObserver",
+    "executed_lyapunov",
+    "lyapunov_trace",
     "plot_candidate_stages",
     "plot_episode",
     "plot_learning_curve",
@@ -28,4 +35,5 @@ __all__ = [
     "read_curve",
     "setpoint_paths",
     "tracking_table",
+    "write_lyapunov_trace",
 ]

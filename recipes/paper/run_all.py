@@ -1,0 +1,111 @@
+"""The paper's experiments from one command: their jobs, then their figures and tables.
+
+    .venv/bin/python recipes/paper/run_all.py budget=quick
+    .venv/bin/python recipes/paper/run_all.py budget=paper frames=50000 experiments=[fig7,table2]
+
+1. The jobs (``torchrl_auv.report.paper.grid``): the union of the experiments' training runs,
+   each once, ``parallel`` at a time, each ``recipes/train.py`` in its own process (its log in
+   ``<run_root>/logs/``). A job whose ``eval.csv`` exists is finished and skipped; one with
+   checkpoints is resumed from its newest (``resume=``); a failed job is named at the end and
+   the command exits non-zero after writing what the others allow.
+2. The report (``torchrl_auv.report.paper.write_report``): per experiment, under
+   ``<run_root>/report/<experiment>/``, PNG figures, a Markdown table, the same as CSV and a
+   JSON of every number, each stating the budget and seeds.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import hydra
+from omegaconf import DictConfig, OmegaConf
+
+from torchrl_auv.report.paper import grid, write_report
+
+HERE = Path(__file__).resolve().parent
+TRAIN = HERE.parent / "train.py"
+log = logging.getLogger("run_all")
+
+
+def job_state(run_dir: Path) -> str:
+    """``"done"`` (``eval.csv`` written), ``"stopped"`` (checkpoints: resume) or ``"new"``."""
+    if (run_dir / "eval.csv").exists():
+        return "done"
+    checkpoints = run_dir / "checkpoints"
+    if checkpoints.is_dir() and any(checkpoints.iterdir()):
+        return "stopped"
+    return "new"
+
+
+def run_job(job: grid.Job, cfg: DictConfig, root: Path) -> tuple[str, str, float]:
+    """Run (or resume, or skip) one job in its own process; returns (name, state, seconds)."""
+    run_dir = root / "jobs" / job.name
+    state = job_state(run_dir)
+    if state == "done":
+        return job.name, "skipped (finished)", 0.0
+    overrides = job.overrides(cfg.budget, root=root, frames=cfg.frames)
+    if state == "stopped":
+        overrides.append(f"resume={run_dir}")
+    if job.values.get("advisor.backend") == "openai" and cfg.get("llm_base_url"):
+        overrides.append(f"advisor.base_url={cfg.llm_base_url}")
+    logfile = root / "logs" / f"{job.name.replace('/', '__')}.log"
+    logfile.parent.mkdir(parents=True, exist_ok=True)
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    env.setdefault("WANDB_MODE", "offline")
+    start = time.perf_counter()
+    with open(logfile, "a") as out:
+        out.write(f"\n$ {sys.executable} {TRAIN} {' '.join(overrides)}\n")
+        out.flush()
+        code = subprocess.call([sys.executable, str(TRAIN), *overrides], stdout=out,
+                               stderr=subprocess.STDOUT, env=env)  # fmt: skip
+    seconds = time.perf_counter() - start
+    if code != 0:
+        return job.name, f"FAILED (exit {code}; log {logfile})", seconds
+    return job.name, "resumed and finished" if state == "stopped" else "finished", seconds
+
+
+@hydra.main(config_path=".", config_name="run_all", version_base="1.3")
+def main(cfg: DictConfig) -> None:
+    if cfg.budget not in grid.BUDGETS:
+        raise ValueError(f"budget must be one of {sorted(grid.BUDGETS)}, got {cfg.budget!r}")
+    seeds = list(cfg.seeds) if cfg.seeds is not None else ([0, 1] if cfg.budget == "quick"
+                                                           else [0, 1, 2])  # fmt: skip
+    if cfg.budget == "paper" and cfg.frames is None:
+        cfg.frames = 50_000
+    experiments = list(cfg.experiments)
+    root = Path(cfg.run_root).resolve()
+    jobs = grid.grid([e for e in experiments if e in grid.EXPERIMENTS], seeds)
+    failed = []
+    if cfg.jobs:
+        log.info("%d jobs (%s budget, seeds %s) under %s, %d at a time", len(jobs), cfg.budget,
+                 seeds, root, cfg.parallel)  # fmt: skip
+        start = time.perf_counter()
+        # the proposer-alone jobs first: they build the first stages the others reuse
+        builders = [job for job in jobs if job.framework == "diffusion"]
+        others = [job for job in jobs if job.framework != "diffusion"]
+        with ThreadPoolExecutor(max_workers=int(cfg.parallel)) as pool:
+            for batch in (builders, others):
+                for name, state, seconds in pool.map(lambda j: run_job(j, cfg, root), batch):
+                    log.info("%-58s %s (%.0f s)", name, state, seconds)
+                    if state.startswith("FAILED"):
+                        failed.append(name)
+        log.info("jobs done in %.1f min", (time.perf_counter() - start) / 60)
+    if cfg.report:
+        written = write_report(root, experiments, seeds=seeds, budget=cfg.budget,
+                               frames=cfg.frames, command=" ".join(sys.argv),
+                               config=OmegaConf.to_container(cfg, resolve=True))  # fmt: skip
+        for path in written:
+            log.info("wrote %s", path)
+    if failed:
+        log.error("%d jobs failed: %s", len(failed), ", ".join(failed))
+        raise SystemExit(1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,104 @@
+"""recipes/paper/run_all.py: every job of the paper's grid composes and passes the checks in
+both budgets; finished jobs are skipped, stopped ones resumed, failed ones named; a reduced
+grid runs end to end (slow)."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+
+from torchrl_auv.report.paper.grid import EXPERIMENTS, Job, grid
+from torchrl_auv.training import check_choices, check_config
+
+REPO = Path(__file__).resolve().parents[2]
+RECIPES = REPO / "recipes"
+
+
+def _load_run_all():
+    spec = importlib.util.spec_from_file_location("_run_all", RECIPES / "paper" / "run_all.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("budget", ["quick", "paper"])
+def test_every_job_composes_and_passes_the_checks(budget, tmp_path):
+    jobs = grid(list(EXPERIMENTS), seeds=(0,))  # other seeds differ in seed= only
+    assert len(jobs) == 35
+    with initialize_config_dir(config_dir=str(RECIPES), version_base="1.3"):
+        for job in jobs:
+            cfg = compose("train", overrides=job.overrides(budget, root=tmp_path, frames=50000))
+            # an OpenAI-compatible advisor's endpoint is checked when its job starts
+            check = check_choices if job.variant == "openai" else check_config
+            check(OmegaConf.to_container(cfg, resolve=True))
+            assert cfg.env.sea_state == job.sea and cfg.seed == job.seed
+            assert list(cfg.eval.sea_states) == [job.sea]
+
+
+FAKE_TRAIN = """
+import sys, pathlib
+args = dict(a.split("=", 1) for a in sys.argv[1:])
+run = pathlib.Path(args.get("resume") or args["run_dir"])
+run.mkdir(parents=True, exist_ok=True)
+(run / "argv.txt").write_text(" ".join(sys.argv[1:]))
+if args["seed"] == "13":
+    sys.exit(3)
+(run / "eval.csv").write_text("sea_state,policy,ssn\\nves,sac,1.0\\n")
+"""
+
+
+def test_finished_jobs_are_skipped_stopped_ones_resumed_failed_ones_named(tmp_path, monkeypatch):
+    run_all = _load_run_all()
+    fake = tmp_path / "fake_train.py"
+    fake.write_text(FAKE_TRAIN)
+    monkeypatch.setattr(run_all, "TRAIN", fake)
+    cfg = OmegaConf.create({"budget": "quick", "frames": None})
+    root = tmp_path / "root"
+    new, stopped, failing = (
+        Job("sac", "ves", "pid", 0),
+        Job("sac", "ves", "pid", 1),
+        Job("sac", "ves", "pid", 13),
+    )
+    (root / "jobs" / stopped.name / "checkpoints" / "checkpoint-100").mkdir(parents=True)
+    assert run_all.run_job(new, cfg, root)[1] == "finished"
+    assert run_all.run_job(new, cfg, root)[1] == "skipped (finished)"
+    assert run_all.run_job(stopped, cfg, root)[1] == "resumed and finished"
+    argv = (root / "jobs" / stopped.name / "argv.txt").read_text()
+    assert f"resume={root / 'jobs' / stopped.name}" in argv
+    _, state, _ = run_all.run_job(failing, cfg, root)
+    assert state.startswith("FAILED (exit 3") and str(root / "logs") in state
+    assert "$ " in (root / "logs" / "sac__ves__pid__seed13.log").read_text()
+
+
+@pytest.mark.slow
+def test_a_reduced_grid_runs_end_to_end(tmp_path):
+    """The quick budget, one seed, Fig. 5/6 and Fig. 8/9 (the proposer alone and the full
+    framework in VES): the figures and tables, their numbers the job's."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
+    command = [sys.executable, str(RECIPES / "paper" / "run_all.py"), "budget=quick",
+               "seeds=[0]", "experiments=[fig5_6,fig8_9]", f"run_root={tmp_path}"]  # fmt: skip
+    subprocess.run(command, check=True, env=env, cwd=tmp_path, timeout=1200)
+    report = tmp_path / "report"
+    for name in ("fig5_6/fig5.png", "fig5_6/fig6.png", "fig8_9/fig8_9.png", "fig8_9/fig8_9.md",
+                 "fig8_9/fig8_9.csv", "run.json"):  # fmt: skip
+        assert (report / name).stat().st_size > 0, name
+    rows = json.loads((report / "fig8_9" / "fig8_9.json").read_text())["rows"]
+    with open(tmp_path / "jobs/diffusion_lac/ves/s_surface/seed0/eval.csv", newline="") as f:
+        own = {row["policy"]: row for row in csv.DictReader(f)}
+    for row in rows:
+        policy = "RL" if row["policy"] == "RL (LAC)" else row["policy"]
+        assert row["runs"] == 1
+        assert row["ssn"] == pytest.approx(float(own[policy]["ssn"]))
+    # a second run finds every job finished and only writes the report again
+    out = subprocess.run(command, check=True, env=env, cwd=tmp_path, capture_output=True,
+                         text=True, timeout=600)  # fmt: skip
+    assert out.stderr.count("skipped (finished)") == 2

@@ -1,0 +1,49 @@
+"""The paper's experiments as jobs: each job once, the first stages built before they are
+reused, each framework given only the keys its config has."""
+
+from __future__ import annotations
+
+import pytest
+
+from torchrl_auv.report.paper.grid import EXPERIMENTS, Job, experiment_jobs, grid
+
+
+def test_shared_jobs_run_once_and_every_first_stage_is_built_first():
+    jobs = grid(list(EXPERIMENTS), seeds=(0, 1, 2))
+    names = [job.name for job in jobs]
+    assert len(names) == len(set(names))
+    # Fig. 7's LAC run in VES is also Table II's, Table III's and Fig. 8/9's
+    shared = "diffusion_lac/ves/s_surface/seed1"
+    for experiment in ("fig7", "table2", "table3", "fig8_9"):
+        assert shared in {job.name for job in experiment_jobs(experiment, (0, 1, 2))}
+    # Fig. 11's softplus run is Fig. 10's alpha 0.1 run and the advisor ablation's fixed row
+    assert "diffusion_lac/ves/s_surface/fixed-softplus-alpha0.1/seed0" in names
+    assert sum("fixed-softplus-alpha0.1" in n for n in names) == 3
+    # every (sea, controller, seed) of a diffusion job has its proposer-alone builder, first
+    builders = [job for job in jobs if job.framework == "diffusion"]
+    assert jobs[: len(builders)] == builders
+    needed = {(j.sea, j.controller, j.seed) for j in jobs if j.framework != "sac"}
+    assert needed == {(j.sea, j.controller, j.seed) for j in builders}
+
+
+def test_overrides_give_each_framework_only_its_groups(tmp_path):
+    sac = Job("sac", "es", "pid", 1).overrides("quick", root=tmp_path)
+    assert not any(o.startswith(("proposer.", "eval.ranks")) for o in sac)
+    assert "collector.init_random_frames=100" in sac
+    lac = Job("diffusion_lac", "ves", "s_surface", 0).overrides("paper", root=tmp_path,
+                                                                frames=50000)  # fmt: skip
+    assert "collector.total_frames=50000" in lac and "eval.ranks=True" in lac
+    assert f"run_dir={tmp_path}/jobs/diffusion_lac/ves/s_surface/seed0" in lac
+    assert f"proposer.cache_dir={tmp_path}/first_stage" in lac
+    assert "eval.sea_states=[ves]" in lac and "preset=paper" in lac
+    variant = experiment_jobs("sampler", (0,))[-1].overrides("paper", root=tmp_path)
+    assert "eval.ranks=False" in variant and "proposer.sampler=ddim" in variant
+
+
+def test_unknown_budget_experiment_or_no_seed_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="budget must be one of"):
+        Job("sac", "es", "pid", 0).overrides("full", root=tmp_path)
+    with pytest.raises(ValueError, match="experiment must be one of"):
+        experiment_jobs("fig12", (0,))
+    with pytest.raises(ValueError, match="seeds"):
+        experiment_jobs("fig7", ())

@@ -1,0 +1,101 @@
+"""The paper's figures and tables from job folders: the numbers are the jobs' (mean ± std over
+the seeds that finished), every output comes as PNG or Markdown, CSV and JSON."""
+
+from __future__ import annotations
+
+import csv
+import json
+import statistics
+
+import pytest
+
+from torchrl_auv.report.paper import write_report
+from torchrl_auv.report.paper.grid import Job, experiment_jobs
+
+POLICIES = ("diffusion_rl", "diffusion_lac", "sac", "diffusion", "OA", "CA1", "CA2", "CA3",
+            "CA4", "RL", "proposer alone", "expert", "random")  # fmt: skip
+COLUMNS = ("sdr_mbit", "ssn", "ec_w", "cost_mean", "decisions", "heading_error_mean",
+           "heading_error_std", "depth_error_mean", "depth_error_std", "violation_rate",
+           "terminated")  # fmt: skip
+
+
+def _value(job: Job, policy: str, column: str) -> float:
+    """A distinct, reproducible number per job, policy and metric."""
+    return float(len(job.name) + 3 * job.seed + POLICIES.index(policy) + COLUMNS.index(column))
+
+
+def _fake_job(root, job: Job) -> None:
+    folder = root / "jobs" / job.name
+    folder.mkdir(parents=True)
+    with open(folder / "eval.csv", "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["sea_state", "policy", *COLUMNS])
+        for policy in POLICIES:
+            writer.writerow([job.sea, policy, *(_value(job, policy, c) for c in COLUMNS)])
+    lines = ["step,key,value"] + [f"{step},eval/{key},{step / 100 + job.seed}"
+                                  for step in (0, 100, 200)
+                                  for key in ("cost_mean", "sdr_mbit", "ssn", "ec_w")]  # fmt: skip
+    (folder / "eval_curve.csv").write_text("\n".join(lines) + "\n")
+    trace = ["decision,mean,std,episodes"] + [f"{t},{10 - t + job.seed},1.0,4" for t in range(5)]
+    (folder / "lyapunov_trace.csv").write_text("\n".join(trace) + "\n")
+
+
+@pytest.fixture
+def root(tmp_path):
+    seeds = (0, 1, 2)
+    for experiment in ("fig7", "table2", "table3", "fig10", "advisor"):
+        for job in experiment_jobs(experiment, seeds):
+            if not (tmp_path / "jobs" / job.name).exists():
+                _fake_job(tmp_path, job)
+    return tmp_path
+
+
+def _mean(jobs, policy, column):
+    return statistics.fmean(_value(j, policy or j.framework, column) for j in jobs)
+
+
+def test_table2_cells_are_the_seeds_mean_and_std(root):
+    write_report(root, ["table2"], seeds=(0, 1, 2), budget="quick")
+    rows = json.loads((root / "report/table2/table2.json").read_text())["rows"]
+    row = next(
+        r for r in rows if r["framework"] == "Diffusion+RL (LAC)" and r["controller"] == "pid"
+    )
+    jobs = [Job("diffusion_lac", "ves", "pid", s) for s in (0, 1, 2)]
+    assert row["ves sdr_mbit"] == pytest.approx(_mean(jobs, None, "sdr_mbit"))
+    assert row["ves sdr_mbit_std"] == pytest.approx(3.0)  # the seeds' values step by 3
+    assert row["es runs"] == 3
+    md = (root / "report/table2/table2.md").read_text()
+    assert md.startswith("budget quick, seeds [0, 1, 2]") and "± 3 |" in md
+
+
+def test_a_missing_job_is_counted_not_invented(root):
+    missing = Job("sac", "ves", "smc", 2)
+    (root / "jobs" / missing.name / "eval.csv").unlink()
+    write_report(root, ["table3"], seeds=(0, 1, 2), budget="quick")
+    rows = json.loads((root / "report/table3/table3.json").read_text())["rows"]
+    row = next(r for r in rows if r["framework"] == "RL (SAC)" and r["controller"] == "smc")
+    assert row["runs"] == 2 and row["heading_error_mean"] == pytest.approx(
+        _mean([Job("sac", "ves", "smc", s) for s in (0, 1)], None, "heading_error_mean")
+    )
+
+
+def test_figures_and_their_numbers(root):
+    paths = write_report(root, ["fig7", "fig10", "advisor"], seeds=(0, 1, 2), budget="quick")
+    names = {p.name for p in paths}
+    assert {"fig7.png", "fig7.csv", "fig10.png", "fig10_lyapunov.json", "advisor.md",
+            "run.json"} <= names  # fmt: skip
+    curve = json.loads((root / "report/fig7/fig7.json").read_text())["rows"]
+    point = next(r for r in curve if r["sea_state"] == "es" and r["framework"] == "RL (SAC)"
+                 and r["metric"] == "eval/ssn" and r["frames"] == 200)  # fmt: skip
+    assert point["value"] == pytest.approx(3.0) and point["value_std"] == pytest.approx(1.0)
+    trace = json.loads((root / "report/fig10/fig10_lyapunov.json").read_text())["rows"]
+    assert [r["variant"] for r in trace] == ["alpha 0.05", "alpha 0.1", "alpha 0.25", "alpha 0.5"]
+    assert trace[0]["L_first_tenth"] == pytest.approx(11.0)  # 10 + mean seed 1
+    run = json.loads((root / "report/run.json").read_text())
+    assert run["budget"] == "quick" and run["seeds"] == [0, 1, 2]
+
+
+def test_an_unknown_experiment_is_refused_before_writing(tmp_path):
+    with pytest.raises(ValueError, match="fig99"):
+        write_report(tmp_path, ["fig99"], seeds=(0,), budget="quick")
+    assert not (tmp_path / "report").exists()

@@ -1,0 +1,312 @@
+"""The paper's figures (4, 5/6, 7, 8/9, 10/11) from a grid's finished jobs (PNG + numbers).
+
+Every function writes its PNG and the numbers behind it (``.csv``, ``.json``, ``.md`` through
+:func:`~torchrl_auv.report.paper.output.write_table`) into ``out_dir`` and returns the paths.
+Bands are ± one standard deviation: over seeds (Fig. 7, 8/9) or over the episodes of every
+seed (Fig. 10/11, one episode per held-out scene and AUV).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import torch
+
+from torchrl_auv.report.curves import read_curve
+from torchrl_auv.report.paper.grid import (
+    ALPHAS,
+    FIXED_ALPHA,
+    FIXED_FORM,
+    FORMS,
+    MAIN_SEA,
+    SEAS,
+    Job,
+)
+from torchrl_auv.report.paper.output import job_rows, mean_std, write_table
+from torchrl_auv.report.paper.tables import LABELS
+
+__all__ = ["fig4", "fig5_6", "fig7", "fig8_9", "fig10_11"]
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    _plt().close(fig)
+    return path
+
+
+def _artefact(root: Path, sea: str, seed: int) -> Path | None:
+    """The first-stage folder of (sea, S-Surface, seed) under ``root/first_stage``."""
+    found = sorted((Path(root) / "first_stage").glob(f"{sea}-s_surface-*-seed{seed}-*"))
+    found = [f for f in found if (f / "pretrain_loss.csv").exists()]
+    return found[-1] if found else None
+
+
+def fig4(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
+    """Fig. 4: the proposer's denoising loss (training and held-out) against optimiser steps
+    in each sea (first seed), log scale, with an inset of the final fifth; the table: the
+    final held-out loss per sea, mean ± std over seeds."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(SEAS), figsize=(4.2 * len(SEAS), 3.4), squeeze=False)
+    rows = []
+    for ax, sea in zip(axes[0], SEAS, strict=True):
+        finals = []
+        for seed in seeds:
+            folder = _artefact(root, sea, seed)
+            if folder is None:
+                continue
+            curve = {"train": ([], []), "heldout": ([], [])}
+            with open(folder / "pretrain_loss.csv", newline="") as handle:
+                for row in csv.DictReader(handle):
+                    if row["split"] in curve:
+                        curve[row["split"]][0].append(int(row["step"]))
+                        curve[row["split"]][1].append(float(row["loss"]))
+            if curve["heldout"][1]:
+                finals.append(curve["heldout"][1][-1])
+            if seed != seeds[0]:
+                continue
+            inset = ax.inset_axes([0.45, 0.45, 0.5, 0.45])
+            for split, (steps, losses) in curve.items():
+                ax.plot(steps, losses, label=split)
+                tail = [i for i, s in enumerate(steps) if s >= 0.8 * max(steps or [0])]
+                inset.plot([steps[i] for i in tail], [losses[i] for i in tail])
+            inset.set_title("final fifth", fontsize="small")
+            inset.tick_params(labelsize="x-small")
+        ax.set_yscale("log")
+        ax.set_title(f"{sea}")
+        ax.set_xlabel("optimiser step")
+        mean, std = mean_std(finals)
+        rows.append({"sea_state": sea, "runs": len(finals), "heldout_loss": mean,
+                     "heldout_loss_std": std})  # fmt: skip
+    axes[0, 0].set_ylabel("denoising loss")
+    axes[0, 0].legend(loc="lower left", fontsize="small")
+    paths = [_save(fig, Path(out_dir) / "fig4.png")]
+    return paths + write_table(
+        out_dir,
+        "fig4",
+        rows,
+        ["sea_state", "runs", "heldout_loss"],
+        header=header + "; held-out denoising loss at the end of the first stage",
+    )
+
+
+def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
+    """Fig. 5/6: the K candidates of the first seed's ``MAIN_SEA`` proposer, from the first
+    state of a held-out scene, at three denoising stages (early, middle, final), each rolled
+    out through the vehicles (:func:`~torchrl_auv.report.candidate_rollouts.
+    roll_out_candidates`): Fig. 5 the top view of the first AUV's paths, Fig. 6 both AUVs in
+    3-D; ``fig5_6.json`` holds the chunks and the paths (m, NED)."""
+    import json
+
+    from torchrl_auv.modules import DiffusionProposer
+    from torchrl_auv.report.candidate_rollouts import roll_out_candidates
+    from torchrl_auv.training import make_history_env
+
+    folder = _artefact(root, MAIN_SEA, seeds[0])
+    if folder is None:
+        return []
+    proposer = DiffusionProposer.load(folder / "proposer.pt")
+    values = json.loads((folder / "values.json").read_text())
+    history = values["demonstrations"]["history"]
+    make = lambda n: make_history_env(MAIN_SEA, seed=100000, num_envs=n, history=history,  # noqa: E731
+                                      controller=values["controller"],
+                                      rate_model=values["rate_model"])  # fmt: skip
+    with torch.no_grad():
+        state = proposer.build_state(make(1).reset())
+        _, stages = proposer.sample(state, generator=torch.Generator().manual_seed(0),
+                                    num_stages=3)  # fmt: skip
+    chunks = stages[0].permute(1, 2, 0, 3, 4)  # [N, S, K, H, A] -> [S, K, N, H, A]
+    paths = roll_out_candidates(make, chunks)  # [S, K, H + 1, N, 3]
+    labels = ["early", "middle", "final"]
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.8), squeeze=False)
+    for s, ax in enumerate(axes[0]):
+        for k in range(paths.shape[1]):
+            ax.plot(paths[s, k, :, 0, 1], paths[s, k, :, 0, 0], marker=".", label=f"candidate {k}")
+        ax.set_title(f"{labels[s]} stage")
+        ax.set_xlabel("east (m)")
+        ax.set_aspect("equal", adjustable="datalim")
+    axes[0, 0].set_ylabel("north (m)")
+    axes[0, -1].legend(fontsize="x-small")
+    written = [_save(fig, Path(out_dir) / "fig5.png")]
+    fig = plt.figure(figsize=(11, 3.8))
+    for s in range(3):
+        ax = fig.add_subplot(1, 3, s + 1, projection="3d")
+        for auv in range(paths.shape[3]):
+            for k in range(paths.shape[1]):
+                p = paths[s, k, :, auv]
+                ax.plot(p[:, 1], p[:, 0], p[:, 2], color=f"C{auv}", alpha=0.8)
+        ax.set_title(f"{labels[s]} stage (AUV 1: C0, AUV 2: C1)", fontsize="small")
+        ax.set_xlabel("east (m)")
+        ax.set_ylabel("north (m)")
+        ax.set_zlabel("depth (m)")
+        ax.invert_zaxis()
+    written.append(_save(fig, Path(out_dir) / "fig6.png"))
+    data = Path(out_dir) / "fig5_6.json"
+    data.write_text(
+        json.dumps(
+            {
+                "header": header,
+                "artefact": str(folder),
+                "stages": labels,
+                "chunks": chunks.tolist(),
+                "paths_ned_m": paths.tolist(),
+            }
+        )
+    )
+    return [*written, data]
+
+
+CURVE_KEYS = (("eval/cost_mean", "cost per AUV-decision"), ("eval/sdr_mbit", "SDR (Mbit)"),
+              ("eval/ssn", "SSN"), ("eval/ec_w", "EC (W)"))  # fmt: skip
+
+
+def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
+    """Fig. 7: the evaluation learning curves (``eval_curve.csv``: the policy being trained,
+    deterministic, on held-out scenes of its sea) of RL, Diffusion+RL and Diffusion+RL (LAC)
+    in each sea; mean and band over seeds. The paper plots the return: here its per-decision
+    form, the cost per AUV-decision (lower is better)."""
+    plt = _plt()
+    fig, axes = plt.subplots(len(CURVE_KEYS), len(SEAS), figsize=(4.2 * len(SEAS), 9),
+                             squeeze=False, sharex="col")  # fmt: skip
+    rows = []
+    for j, sea in enumerate(SEAS):
+        for framework in ("sac", "diffusion_rl", "diffusion_lac"):
+            curves = [Path(root) / "jobs" / Job(framework, sea, "s_surface", s).name
+                      / "eval_curve.csv" for s in seeds]  # fmt: skip
+            curves = [read_curve(c) for c in curves if c.exists()]
+            for i, (key, label) in enumerate(CURVE_KEYS):
+                runs = [dict(zip(*c[key], strict=True)) for c in curves if key in c]
+                steps = sorted(set().union(*runs)) if runs else []
+                stats = [mean_std([r[s] for r in runs if s in r]) for s in steps]
+                mean = [m for m, _ in stats]
+                std = [d for _, d in stats]
+                (line,) = axes[i, j].plot(steps, mean, label=LABELS[framework])
+                axes[i, j].fill_between(steps, [m - d for m, d in zip(mean, std, strict=True)],
+                                        [m + d for m, d in zip(mean, std, strict=True)],
+                                        color=line.get_color(), alpha=0.2)  # fmt: skip
+                axes[i, 0].set_ylabel(label)
+                rows += [
+                    {
+                        "sea_state": sea,
+                        "framework": LABELS[framework],
+                        "metric": key,
+                        "frames": s,
+                        "runs": sum(s in r for r in runs),
+                        "value": m,
+                        "value_std": d,
+                    }
+                    for s, m, d in zip(steps, mean, std, strict=True)
+                ]
+        axes[0, j].set_title(sea)
+        axes[-1, j].set_xlabel("frames")
+    axes[0, 0].legend(fontsize="small")
+    paths = [_save(fig, Path(out_dir) / "fig7.png")]
+    return paths + write_table(
+        out_dir,
+        "fig7",
+        rows,
+        ["sea_state", "framework", "metric", "frames", "runs", "value"],
+        header=header + "; evaluation curves, mean ± std over seeds",
+    )
+
+
+RANKS = ("OA", "CA1", "CA2", "CA3", "CA4", "RL")
+
+
+def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
+    """Fig. 8/9: the full framework's selection executed at a fixed rank (OA: the lowest L,
+    its own choice; CA1-CA4: the next ranks) and its actor alone (RL (LAC)) on the same
+    held-out scenes: the episode return (minus the cost per AUV over the episode), SDR, SSN
+    and EC, mean ± std over seeds (``MAIN_SEA``, S-Surface)."""
+    plt = _plt()
+    metrics = ("return", "sdr_mbit", "ssn", "ec_w")
+    jobs = [Job("diffusion_lac", MAIN_SEA, "s_surface", s) for s in seeds]
+    rows = []
+    for policy in RANKS:
+        cell = job_rows(root, jobs, policy, ("cost_mean", "decisions", "sdr_mbit", "ssn", "ec_w"))
+        cell["return"] = -cell["cost_mean"] * cell["decisions"]
+        cell["return_std"] = cell["cost_mean_std"] * cell["decisions"]
+        rows.append({"policy": "RL (LAC)" if policy == "RL" else policy, **cell})
+    fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.2), squeeze=False)
+    for ax, metric in zip(axes[0], metrics, strict=True):
+        values = [r[metric] if math.isfinite(r[metric]) else 0.0 for r in rows]
+        errors = [r[f"{metric}_std"] if math.isfinite(r[f"{metric}_std"]) else 0.0 for r in rows]
+        ax.bar([r["policy"] for r in rows], values, yerr=errors, capsize=3)
+        ax.set_title(metric)
+        ax.tick_params(axis="x", labelrotation=45)
+    paths = [_save(fig, Path(out_dir) / "fig8_9.png")]
+    return paths + write_table(
+        out_dir,
+        "fig8_9",
+        rows,
+        ["policy", "runs", *metrics],
+        header=header + f"; sea {MAIN_SEA}; return = -cost per AUV "
+        "summed over the episode (approximated as mean cost x decisions)",
+    )
+
+
+def _trace(root: Path, job: Job) -> dict[str, list[float]] | None:
+    path = Path(root) / "jobs" / job.name / "lyapunov_trace.csv"
+    if not path.exists():
+        return None
+    out = {"mean": [], "std": [], "episodes": []}
+    with open(path, newline="") as handle:
+        for row in csv.DictReader(handle):
+            for key in out:
+                out[key].append(float(row[key]))
+    return out
+
+
+def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
+             experiment: str) -> list[Path]:  # fmt: skip
+    """Fig. 10 (``experiment="fig10"``: the weight alpha) or Fig. 11 (``"fig11"``: the form):
+    the executed candidate's Lyapunov value along held-out episodes (``lyapunov_trace.csv``
+    of each job), the mean over every episode of every seed and a ± one std band (the
+    episodes' spread pooled with the seeds' means)."""
+    plt = _plt()
+    variants = ([(f"alpha {a}", FIXED_FORM, a) for a in ALPHAS] if experiment == "fig10"
+                else [(f"form {f}", f, FIXED_ALPHA) for f in FORMS])  # fmt: skip
+    fig, ax = plt.subplots(figsize=(6.5, 3.6))
+    rows = []
+    for label, form, alpha in variants:
+        traces = [_trace(root, Job("diffusion_lac", MAIN_SEA, "s_surface", s,
+                                   f"fixed-{form}-alpha{alpha}")) for s in seeds]  # fmt: skip
+        traces = [t for t in traces if t is not None]
+        if not traces:
+            continue
+        length = min(len(t["mean"]) for t in traces)
+        mean = [sum(t["mean"][i] for t in traces) / len(traces) for i in range(length)]
+        spread = [math.sqrt(sum(t["std"][i] ** 2 + (t["mean"][i] - mean[i]) ** 2
+                                for t in traces) / len(traces)) for i in range(length)]  # fmt: skip
+        (line,) = ax.plot(range(length), mean, label=label)
+        ax.fill_between(range(length), [m - s for m, s in zip(mean, spread, strict=True)],
+                        [m + s for m, s in zip(mean, spread, strict=True)],
+                        color=line.get_color(), alpha=0.15)  # fmt: skip
+        first, last = mean[: max(1, length // 10)], mean[-max(1, length // 10) :]
+        rows.append({"variant": label, "runs": len(traces), "decisions": length,
+                     "L_first_tenth": sum(first) / len(first),
+                     "L_last_tenth": sum(last) / len(last)})  # fmt: skip
+    ax.set_xlabel("decision")
+    ax.set_ylabel("L(s, a) of the executed action")
+    ax.legend(fontsize="small")
+    paths = [_save(fig, Path(out_dir) / f"{experiment}.png")]
+    return paths + write_table(
+        out_dir,
+        f"{experiment}_lyapunov",
+        rows,
+        ["variant", "runs", "decisions", "L_first_tenth", "L_last_tenth"],
+        header=header + f"; sea {MAIN_SEA}; Lyapunov value along held-out episodes",
+    )

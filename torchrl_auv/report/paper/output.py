@@ -1,0 +1,108 @@
+"""Reading the jobs of a grid and writing one experiment's tables (Markdown, CSV, JSON).
+
+Examples:
+    >>> import tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp())
+    >>> rows = [{"framework": "sac", "ssn": 4.0, "ssn_std": 1.0, "runs": 2}]
+    >>> paths = write_table(out, "demo", rows, ["framework", "runs", "ssn"],
+    ...                     header="budget quick, seeds [0, 1]")
+    >>> [p.name for p in paths]
+    ['demo.md', 'demo.csv', 'demo.json']
+    >>> print((out / "demo.md").read_text().splitlines()[2])
+    | framework | runs | ssn |
+    >>> print((out / "demo.md").read_text().splitlines()[4])
+    | sac | 2 | 4 ± 1 |
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import statistics
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from torchrl_auv.report.paper.grid import Job
+
+__all__ = ["job_rows", "mean_std", "read_eval", "write_table"]
+
+
+def read_eval(root: Path, job: Job) -> dict[str, dict[str, object]] | None:
+    """The job's ``eval.csv`` as ``{policy: row}`` (numbers as floats), ``None`` when the job
+    has not finished."""
+    path = Path(root) / "jobs" / job.name / "eval.csv"
+    if not path.exists():
+        return None
+    with open(path, newline="") as handle:
+        return {row["policy"]: {k: _number(v) for k, v in row.items()}
+                for row in csv.DictReader(handle)}  # fmt: skip
+
+
+def _number(text: str):
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def mean_std(values: Sequence[float]) -> tuple[float, float]:
+    """Mean and sample standard deviation (0 for one value; NaN for none)."""
+    values = [v for v in values if isinstance(v, float) and math.isfinite(v)]
+    if not values:
+        return math.nan, math.nan
+    return statistics.fmean(values), statistics.stdev(values) if len(values) > 1 else 0.0
+
+
+def job_rows(
+    root: Path, jobs: Sequence[Job], policy: str | None, metrics: Sequence[str]
+) -> dict[str, object]:
+    """Over ``jobs`` (the seeds of one cell): ``runs`` (finished jobs), ``seeds`` and, per
+    metric, ``<metric>`` (mean) and ``<metric>_std`` of the ``policy`` row (``None``: the
+    job's own framework)."""
+    found = [(job, read_eval(root, job)) for job in jobs]
+    found = [(job, rows.get(policy or job.framework)) for job, rows in found if rows]
+    found = [(job, row) for job, row in found if row is not None]
+    out: dict[str, object] = {"runs": len(found), "seeds": [job.seed for job, _ in found]}
+    for metric in metrics:
+        mean, std = mean_std([row.get(metric) for _, row in found])
+        out[metric], out[f"{metric}_std"] = mean, std
+    return out
+
+
+def _cell(row: Mapping, column: str) -> str:
+    value = row.get(column, "")
+    if isinstance(value, float):
+        std = row.get(f"{column}_std")
+        return f"{value:.3g}" if std is None else f"{value:.3g} ± {std:.3g}"
+    return str(value)
+
+
+def write_table(
+    out_dir: str | Path,
+    name: str,
+    rows: Sequence[Mapping],
+    columns: Sequence[str],
+    *,
+    header: str,
+    extra: Mapping | None = None,
+) -> list[Path]:
+    """``<name>.md`` (``header`` line, then ``columns`` with ``mean ± std`` cells),
+    ``<name>.csv`` (every key of the rows) and ``<name>.json`` (the header, the rows and
+    ``extra``) under ``out_dir``. Returns the three paths."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    lines = [header, "", "| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(_cell(row, c) for c in columns) + " |" for row in rows]
+    md = out_dir / f"{name}.md"
+    md.write_text("\n".join(lines) + "\n")
+    keys = list(dict.fromkeys(k for row in rows for k in row))
+    path_csv = out_dir / f"{name}.csv"
+    with open(path_csv, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=keys)
+        writer.writeheader()
+        writer.writerows(rows)
+    path_json = out_dir / f"{name}.json"
+    path_json.write_text(json.dumps({"header": header, "rows": list(rows), **(extra or {})},
+                                    indent=1, default=str))  # fmt: skip
+    return [md, path_csv, path_json]

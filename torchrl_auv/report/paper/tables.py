@@ -1,0 +1,171 @@
+"""The paper's tables (II, III) and the ablations from a grid's finished jobs.
+
+Each function reads the jobs of its experiment (:func:`~torchrl_auv.report.paper.grid.
+experiment_jobs`) under ``root`` and writes ``<name>.md``, ``.csv`` and ``.json`` into
+``out_dir`` (:func:`~torchrl_auv.report.paper.output.write_table`); cells are mean ± std over
+the seeds whose job finished (``runs``). Metrics are the evaluation's (``eval.csv``: held-out
+scenes, deterministic actions): SDR (Mbit), EC (W), SSN, the cost per AUV-decision and the
+tracking errors between the controller's setpoints and the true state (rad, m).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from torchrl_auv.report.paper.grid import (
+    ALPHAS,
+    CONTROLLERS,
+    FIXED_ALPHA,
+    FIXED_FORM,
+    FORMS,
+    FRAMEWORKS,
+    MAIN_SEA,
+    Job,
+)
+from torchrl_auv.report.paper.output import job_rows, write_table
+
+__all__ = ["ablation_tables", "table2", "table3", "table3_fixed"]
+
+#: the frameworks as the paper names them
+LABELS = {"sac": "RL (SAC)", "diffusion": "Diffusion", "diffusion_rl": "Diffusion+RL",
+          "diffusion_lac": "Diffusion+RL (LAC)"}  # fmt: skip
+
+
+def table2(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
+    """Table II: SDR, EC, SSN of Diffusion+RL and Diffusion+RL (LAC) with each controller in
+    ES and VES (rows: framework x controller; columns: sea x metric)."""
+    metrics = ("sdr_mbit", "ec_w", "ssn")
+    rows = []
+    for framework in ("diffusion_rl", "diffusion_lac"):
+        for controller in CONTROLLERS:
+            row: dict[str, object] = {"framework": LABELS[framework], "controller": controller}
+            for sea in ("es", "ves"):
+                jobs = [Job(framework, sea, controller, s) for s in seeds]
+                cell = job_rows(root, jobs, None, metrics)
+                for m in metrics:
+                    row[f"{sea} {m}"], row[f"{sea} {m}_std"] = cell[m], cell[f"{m}_std"]
+                row[f"{sea} runs"] = cell["runs"]
+            rows.append(row)
+    columns = (
+        ["framework", "controller"]
+        + [f"{sea} {m}" for sea in ("es", "ves") for m in metrics]
+        + ["es runs", "ves runs"]
+    )
+    return write_table(out_dir, "table2", rows, columns, header=header)
+
+
+def table3(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
+    """Table III: the mean and (within-episode) standard deviation of the yaw and depth
+    tracking errors of the four frameworks with each controller, measured in the
+    data-collection evaluation episodes (``MAIN_SEA``), mean ± std over seeds."""
+    metrics = ("heading_error_mean", "heading_error_std", "depth_error_mean", "depth_error_std")
+    rows = []
+    for framework in FRAMEWORKS:
+        for controller in CONTROLLERS:
+            jobs = [Job(framework, MAIN_SEA, controller, s) for s in seeds]
+            rows.append({"framework": LABELS[framework], "controller": controller,
+                         **job_rows(root, jobs, None, metrics)})  # fmt: skip
+    return write_table(
+        out_dir,
+        "table3",
+        rows,
+        ["framework", "controller", "runs", *metrics],
+        header=header + f"; sea {MAIN_SEA}; errors in rad (heading), m (depth)",
+    )
+
+
+def table3_fixed(out_dir: Path, header: str, *, runs: int, duration: float, seed: int = 0):
+    """The fixed-schedule controller comparison (a separate, labelled experiment: the
+    low-level controllers alone tracking a scheduled depth and heading behind the Kalman
+    filter, :func:`~torchrl_auv.report.tracking_table`)."""
+    from torchrl_auv.report.tracking import tracking_table
+
+    rows, _ = tracking_table(CONTROLLERS, ("ideal", "es", "ves"), runs=runs, seed=seed,
+                             duration=duration)  # fmt: skip
+    columns = ["sea_state", "controller", "heading_error_mean", "heading_error_std",
+               "depth_error_mean", "depth_error_std", "kf_rms", "usbl_rms"]  # fmt: skip
+    note = (f"{header}; fixed schedule, no learning: {runs} runs of {duration:g} s per cell "
+            "(not the data-collection episodes of table3)")  # fmt: skip
+    return write_table(out_dir, "table3_fixed", rows, columns, header=note)
+
+
+METRICS = ("cost_mean", "sdr_mbit", "ssn", "ec_w", "violation_rate", "terminated")
+
+
+def _variants(root, seeds, variants):
+    rows = []
+    for label, variant, values in variants:
+        jobs = [Job("diffusion_lac", MAIN_SEA, "s_surface", s, variant, values) for s in seeds]
+        rows.append({"variant": label, **job_rows(root, jobs, None, METRICS)})
+    return rows
+
+
+def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
+                    experiment: str) -> list[Path]:  # fmt: skip
+    """Beyond the paper, the full framework in ``MAIN_SEA``: ``advisor`` (the rule-based
+    advisor against the spec fixed at the presets' start and, when the ``advisor_llm``
+    experiment ran, a model behind ``advisor.base_url``), ``lyapunov_cost`` (the stability
+    cost against the paper's task cost), ``sampler`` (50 DDPM against 10 DDIM denoising
+    steps; the proposer's sampling seconds per decision too), ``fig10`` / ``fig11`` (each
+    fixed weight and form)."""
+    fixed = f"fixed-{FIXED_FORM}-alpha{FIXED_ALPHA}"
+    variants = {
+        "advisor": [("rule-based advisor (preset)", "", {}),
+                    (f"fixed: {FIXED_FORM}, alpha {FIXED_ALPHA}", fixed, {}),
+                    ("OpenAI-compatible model (experiment advisor_llm)", "openai", {})],
+        "lyapunov_cost": [("stability cost (preset)", "", {}),
+                          ("task cost (paper)", "task_cost", {})],
+        "sampler": [("the preset's sampler (paper: 50 DDPM)", "", {}),
+                    ("10 DDIM steps", "ddim10", {})],
+        "fig10": [(f"alpha {a}", f"fixed-{FIXED_FORM}-alpha{a}", {}) for a in ALPHAS],
+        "fig11": [(f"form {f}", f"fixed-{f}-alpha{FIXED_ALPHA}", {}) for f in FORMS],
+    }[experiment]  # fmt: skip
+    rows = _variants(root, seeds, variants)
+    extra = []
+    if experiment == "sampler":
+        for row, (_, variant, _) in zip(rows, variants, strict=True):
+            row.update(_sampling_time(root, variant, seeds[0]))
+        extra = ["sampler", "proposer_s_per_decision"]
+    return write_table(
+        out_dir,
+        experiment,
+        rows,
+        ["variant", "runs", *METRICS, *extra],
+        header=header + f"; Diffusion+RL (LAC), sea {MAIN_SEA}, S-Surface",
+    )
+
+
+def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5) -> dict:
+    """The job's sampler (``.hydra/config.yaml``) and the seconds its proposer (the job's
+    first-stage artefact) takes for one decision of both AUVs of a held-out scene: K
+    candidates, the median of ``repeats`` timings on this machine's thread count."""
+    import time
+
+    import torch
+    import yaml
+
+    from torchrl_auv.modules import DiffusionProposer
+    from torchrl_auv.training import make_history_env
+
+    folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed, variant).name
+    config = folder / ".hydra" / "config.yaml"
+    if not config.exists():
+        return {"sampler": "", "proposer_s_per_decision": float("nan")}
+    p = yaml.safe_load(config.read_text())["proposer"]
+    found = sorted((Path(root) / "first_stage").glob(f"{MAIN_SEA}-s_surface-*-seed{seed}-*"))
+    proposer = DiffusionProposer.load(found[-1] / "proposer.pt")
+    proposer.configure_sampling(num_candidates=p["num_candidates"], sampler=p["sampler"],
+                                num_inference_steps=p["num_inference_steps"])  # fmt: skip
+    env = make_history_env(MAIN_SEA, seed=100000, num_envs=1, history=p["history"])
+    state = proposer.build_state(env.reset())
+    seconds = []
+    with torch.no_grad():
+        for _ in range(repeats):
+            start = time.perf_counter()
+            proposer.sample(state)
+            seconds.append(time.perf_counter() - start)
+    return {
+        "sampler": f"{p['sampler']} {p['num_inference_steps']}",
+        "proposer_s_per_decision": sorted(seconds)[repeats // 2],
+    }
