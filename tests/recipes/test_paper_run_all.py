@@ -101,4 +101,4 @@ def test_a_reduced_grid_runs_end_to_end(tmp_path):
     # a second run finds every job finished and only writes the report again
     out = subprocess.run(command, check=True, env=env, cwd=tmp_path, capture_output=True,
                          text=True, timeout=600)  # fmt: skip
-    assert out.stderr.count("skipped (finished)") == 2
+    assert (out.stdout + out.stderr).count("skipped (finished)") == 2
