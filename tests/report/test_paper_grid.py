@@ -36,6 +36,9 @@ def test_overrides_give_each_framework_only_its_groups(tmp_path):
     assert f"run_dir={tmp_path}/jobs/diffusion_lac/ves/s_surface/seed0" in lac
     assert f"proposer.cache_dir={tmp_path}/first_stage" in lac
     assert "eval.sea_states=[ves]" in lac and "preset=paper" in lac
+    alone = Job("diffusion", "es", "smc", 0).overrides("paper", root=tmp_path, frames=50000)
+    assert "collector.total_frames=1000" in alone  # the proposer alone trains nothing
+    assert "collector.total_frames=50000" not in alone
     variant = experiment_jobs("sampler", (0,))[-1].overrides("paper", root=tmp_path)
     assert "eval.ranks=False" in variant and "proposer.sampler=ddim" in variant
 

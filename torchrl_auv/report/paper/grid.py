@@ -73,12 +73,14 @@ BUDGETS: dict[str, dict[str, dict[str, object]]] = {
     },
     "paper": {
         "": {"preset": "paper"},
+        # the proposer alone is not trained after its first stage: its frames only act
+        "diffusion": {"collector.total_frames": 1000},
     },
 }  # fmt: skip
 #: the groups of :data:`BUDGETS` that apply to each framework (its config's groups and itself)
 _GROUPS = {
     "sac": ("", "env", "collector", "optim", "checkpoint", "eval", "sac"),
-    "diffusion": ("", "env", "collector", "checkpoint", "eval", "proposer"),
+    "diffusion": ("", "env", "collector", "checkpoint", "eval", "proposer", "diffusion"),
     "diffusion_rl": ("", "env", "collector", "optim", "checkpoint", "eval", "proposer"),
     "diffusion_lac": ("", "env", "collector", "optim", "checkpoint", "eval", "proposer"),
 }
@@ -120,8 +122,8 @@ class Job:
         values: dict[str, object] = {"framework": self.framework}
         for group in _GROUPS[self.framework]:
             values.update(BUDGETS[budget].get(group, {}))
-        if frames is not None:
-            values["collector.total_frames"] = int(frames)
+        if frames is not None and self.framework != "diffusion":
+            values["collector.total_frames"] = int(frames)  # the proposer alone trains nothing
         values.update({"env.sea_state": self.sea, "env.controller": self.controller,
                        "seed": self.seed, "eval.sea_states": f"[{self.sea}]",
                        "run_dir": str(root / "jobs" / self.name)})  # fmt: skip
