@@ -64,6 +64,7 @@ def test_table2_cells_are_the_seeds_mean_and_std(root):
     assert row["ves sdr_mbit"] == pytest.approx(_mean(jobs, None, "sdr_mbit"))
     assert row["ves sdr_mbit_std"] == pytest.approx(3.0)  # the seeds' values step by 3
     assert row["es runs"] == 3
+    assert (row["paper ves ssn"], row["paper ves ssn_std"]) == (44.0, 4.2)  # the paper's own
     md = (root / "report/table2/table2.md").read_text()
     assert md.startswith("budget quick, seeds [0, 1, 2]") and "± 3 |" in md
 

@@ -26,6 +26,7 @@ from torchrl_auv.report.paper.grid import (
     Job,
 )
 from torchrl_auv.report.paper.output import job_rows, mean_std, write_table
+from torchrl_auv.report.paper.published import FIG8_RETURN_E3
 from torchrl_auv.report.paper.tables import LABELS
 
 __all__ = ["fig4", "fig5_6", "fig7", "fig8_9", "fig10_11"]
@@ -239,7 +240,8 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         cell = job_rows(root, jobs, policy, ("cost_mean", "decisions", "sdr_mbit", "ssn", "ec_w"))
         cell["return"] = -cell["cost_mean"] * cell["decisions"]
         cell["return_std"] = cell["cost_mean_std"] * cell["decisions"]
-        rows.append({"policy": "RL (LAC)" if policy == "RL" else policy, **cell})
+        rows.append({"policy": "RL (LAC)" if policy == "RL" else policy, **cell,
+                     "paper return (x 1e3)": FIG8_RETURN_E3[policy]})  # fmt: skip
     fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.2), squeeze=False)
     for ax, metric in zip(axes[0], metrics, strict=True):
         values = [r[metric] if math.isfinite(r[metric]) else 0.0 for r in rows]
@@ -252,9 +254,9 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         out_dir,
         "fig8_9",
         rows,
-        ["policy", "runs", *metrics],
-        header=header + f"; sea {MAIN_SEA}; return = -cost per AUV "
-        "summed over the episode (approximated as mean cost x decisions)",
+        ["policy", "runs", *metrics, "paper return (x 1e3)"],
+        header=header + f"; sea {MAIN_SEA}; return = -cost per AUV summed over the episode "
+        "(mean cost x decisions; the paper's return is on its own reward scale)",
     )
 
 

@@ -24,6 +24,7 @@ from torchrl_auv.report.paper.grid import (
     Job,
 )
 from torchrl_auv.report.paper.output import job_rows, write_table
+from torchrl_auv.report.paper.published import TABLE2, TABLE3
 
 __all__ = ["ablation_tables", "table2", "table3", "table3_fixed"]
 
@@ -34,7 +35,7 @@ LABELS = {"sac": "RL (SAC)", "diffusion": "Diffusion", "diffusion_rl": "Diffusio
 
 def table2(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
     """Table II: SDR, EC, SSN of Diffusion+RL and Diffusion+RL (LAC) with each controller in
-    ES and VES (rows: framework x controller; columns: sea x metric)."""
+    ES and VES (rows: framework x controller; columns: sea x metric, ours and the paper's)."""
     metrics = ("sdr_mbit", "ec_w", "ssn")
     rows = []
     for framework in ("diffusion_rl", "diffusion_lac"):
@@ -43,16 +44,19 @@ def table2(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
             for sea in ("es", "ves"):
                 jobs = [Job(framework, sea, controller, s) for s in seeds]
                 cell = job_rows(root, jobs, None, metrics)
+                paper = TABLE2[framework, controller, sea]
                 for m in metrics:
                     row[f"{sea} {m}"], row[f"{sea} {m}_std"] = cell[m], cell[f"{m}_std"]
+                    row[f"paper {sea} {m}"], row[f"paper {sea} {m}_std"] = paper[m]
                 row[f"{sea} runs"] = cell["runs"]
             rows.append(row)
-    columns = (
-        ["framework", "controller"]
-        + [f"{sea} {m}" for sea in ("es", "ves") for m in metrics]
-        + ["es runs", "ves runs"]
-    )
-    return write_table(out_dir, "table2", rows, columns, header=header)
+    columns = ["framework", "controller"]
+    columns += [f"{who}{sea} {m}" for sea in ("es", "ves") for m in metrics
+                for who in ("", "paper ")]  # fmt: skip
+    columns += ["es runs", "ves runs"]
+    note = ("; SDR: ours is the data delivered per episode (Mbit) at the rate model named, the "
+            "paper's is in its own unit (MBit/s) of its link-rate formula")  # fmt: skip
+    return write_table(out_dir, "table2", rows, columns, header=header + note)
 
 
 def table3(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
@@ -64,14 +68,16 @@ def table3(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     for framework in FRAMEWORKS:
         for controller in CONTROLLERS:
             jobs = [Job(framework, MAIN_SEA, controller, s) for s in seeds]
+            paper = {f"paper {m}": v for m, v in TABLE3[framework, controller].items()}
             rows.append({"framework": LABELS[framework], "controller": controller,
-                         **job_rows(root, jobs, None, metrics)})  # fmt: skip
+                         **job_rows(root, jobs, None, metrics), **paper})  # fmt: skip
     return write_table(
         out_dir,
         "table3",
         rows,
-        ["framework", "controller", "runs", *metrics],
-        header=header + f"; sea {MAIN_SEA}; errors in rad (heading), m (depth)",
+        ["framework", "controller", "runs", *(c for m in metrics for c in (m, f"paper {m}"))],
+        header=header + f"; sea {MAIN_SEA} (the paper names none); errors in rad (heading), "
+        "m (depth)",
     )
 
 
