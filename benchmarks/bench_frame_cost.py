@@ -60,8 +60,7 @@ def _build(framework: str, sampler: str | None, steps: int | None, folder: Path)
     from hydra import compose, initialize_config_dir
 
     from torchrl_auv import training
-    from torchrl_auv.modules import DiffusionProposer
-    from torchrl_auv.training.first_stage_build import _noise_model_kwargs
+    from torchrl_auv.training.first_stage_build import untrained_proposer
 
     overrides = [
         f"framework={framework}",
@@ -76,17 +75,9 @@ def _build(framework: str, sampler: str | None, steps: int | None, folder: Path)
     p = cfg.proposer
     env = training.env_from_config(cfg)
     obs_dim = env.observation_spec["agents", "observation"].shape[-1]
-    DiffusionProposer(
-        DiffusionProposer.conditioning_dim(obs_dim, 3, p.history),
-        3,
-        state_key=training.OBSERVATION,
-        history_key=(training.AGENTS, "history"),
-        horizon=p.horizon,
-        noise_model=p.noise_model,
-        noise_model_kwargs=_noise_model_kwargs(p),
-        num_train_steps=p.num_train_steps,
-        schedule=p.schedule,
-    ).save(folder / "proposer.pt")
+    untrained_proposer(obs_dim, 3, history=p.history, horizon=p.horizon, model=p).save(
+        folder / "proposer.pt"
+    )
     proposer = training.first_stage_from_config(cfg).proposer
     actor = training.make_actor(env, cfg.network.hidden)
     if framework == "diffusion_lac":

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import yaml
 
-__all__ = ["DEFAULT_METRICS", "aggregate", "load_runs", "markdown_table"]
+__all__ = ["DEFAULT_METRICS", "aggregate", "load_runs", "markdown_table", "parse_number"]
 
 #: The metrics the table shows by default (eval.csv has more: pass ``metrics=``).
 DEFAULT_METRICS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "cost_mean",
@@ -77,7 +77,7 @@ def load_runs(root: str | Path) -> list[dict]:
     for run in runs:
         with open(run / "eval.csv", newline="") as handle:
             for row in csv.DictReader(handle):
-                parsed = {key: _number(value) for key, value in row.items()}
+                parsed = {key: parse_number(value) for key, value in row.items()}
                 parsed.update({axis: values[run].get(axis, "") for axis in axes})
                 parsed["run"] = str(run.relative_to(root))
                 if "framework" in values[run]:
@@ -86,7 +86,8 @@ def load_runs(root: str | Path) -> list[dict]:
     return rows
 
 
-def _number(text: str):
+def parse_number(text: str):
+    """``text`` as a float when it is one, else unchanged (a CSV cell)."""
     try:
         return float(text)
     except ValueError:

@@ -22,7 +22,7 @@ from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import pretrain_proposer
 from torchrl_auv.training.keys import AGENTS, OBSERVATION
 
-__all__ = ["build_first_stage"]
+__all__ = ["build_first_stage", "untrained_proposer"]
 
 log = logging.getLogger(__name__)
 
@@ -31,6 +31,22 @@ def _noise_model_kwargs(model: Mapping) -> dict:
     if model["noise_model"] == "mlp":
         return {"hidden": model["hidden"], "cond_dim": model["cond_dim"], "depth": model["depth"]}
     return {"channels": (model["hidden"],) * model["depth"], "cond_dim": model["cond_dim"]}
+
+
+def untrained_proposer(
+    obs_dim: int, act_dim: int, *, history: int, horizon: int, model: Mapping
+) -> DiffusionProposer:
+    """The first stage's proposer before pretraining, on the agents layout: conditioned on the
+    observation and its ``history``-long history, chunks of ``horizon`` actions, the noise
+    model and schedule of ``model`` (the first-stage values' ``"model"`` group, or a recipe's
+    ``proposer`` config group, which has the same keys)."""
+    return DiffusionProposer(
+        DiffusionProposer.conditioning_dim(obs_dim, act_dim, history), act_dim,
+        state_key=OBSERVATION,
+        history_key=(AGENTS, "history"), horizon=horizon, noise_model=model["noise_model"],
+        noise_model_kwargs=_noise_model_kwargs(model), num_train_steps=model["num_train_steps"],
+        schedule=model["schedule"],
+    )  # fmt: skip
 
 
 def _dagger_policy(proposer: DiffusionProposer, env) -> ProposerAlone:
@@ -83,14 +99,8 @@ def build_first_stage(
                "demonstrations_s": time.perf_counter() - start}  # fmt: skip
     save_demonstrations(data, folder / "demonstrations", metadata=dict(values))
     obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
-    history = demo["history"]
-    proposer = DiffusionProposer(
-        DiffusionProposer.conditioning_dim(obs_dim, act_dim, history), act_dim,
-        state_key=OBSERVATION,
-        history_key=(AGENTS, "history"), horizon=demo["horizon"], noise_model=model["noise_model"],
-        noise_model_kwargs=_noise_model_kwargs(model), num_train_steps=model["num_train_steps"],
-        schedule=model["schedule"],
-    )  # fmt: skip
+    proposer = untrained_proposer(obs_dim, act_dim, history=demo["history"],
+                                  horizon=demo["horizon"], model=model)  # fmt: skip
     curve = {"phase": [], "step": [], "split": [], "loss": []}
     phases: list[tuple[int, str]] = []
 

@@ -25,7 +25,7 @@ from torchrl_auv.report.paper.grid import (
     SEAS,
     Job,
 )
-from torchrl_auv.report.paper.output import job_rows, mean_std, write_table
+from torchrl_auv.report.paper.output import first_stage_folder, job_rows, mean_std, write_table
 from torchrl_auv.report.paper.published import FIG8_RETURN_E3
 from torchrl_auv.report.paper.tables import LABELS
 
@@ -48,13 +48,6 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def _artefact(root: Path, sea: str, seed: int) -> Path | None:
-    """The first-stage folder of (sea, S-Surface, seed) under ``root/first_stage``."""
-    found = sorted((Path(root) / "first_stage").glob(f"{sea}-s_surface-*-seed{seed}-*"))
-    found = [f for f in found if (f / "pretrain_loss.csv").exists()]
-    return found[-1] if found else None
-
-
 def fig4(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
     """Fig. 4: the proposer's denoising loss (training and held-out) against optimiser steps
     in each sea (first seed), log scale, with an inset of the final fifth; the table: the
@@ -65,7 +58,7 @@ def fig4(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
     for ax, sea in zip(axes[0], SEAS, strict=True):
         finals = []
         for seed in seeds:
-            folder = _artefact(root, sea, seed)
+            folder = first_stage_folder(root, sea, seed)
             if folder is None:
                 continue
             curve = {"train": ([], []), "heldout": ([], [])}
@@ -115,7 +108,7 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     from torchrl_auv.report.candidate_rollouts import roll_out_candidates
     from torchrl_auv.training import make_history_env
 
-    folder = _artefact(root, MAIN_SEA, seeds[0])
+    folder = first_stage_folder(root, MAIN_SEA, seeds[0])
     if folder is None:
         return []
     proposer = DiffusionProposer.load(folder / "proposer.pt")

@@ -24,8 +24,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from torchrl_auv.report.paper.grid import Job
+from torchrl_auv.report.sweeps import parse_number
 
-__all__ = ["job_rows", "mean_std", "read_eval", "write_table"]
+__all__ = ["first_stage_folder", "job_rows", "mean_std", "read_eval", "write_table"]
+
+
+def first_stage_folder(root: Path, sea: str, seed: int) -> Path | None:
+    """The built first stage of (``sea``, S-Surface, ``seed``) under ``root/first_stage``
+    (the grid's runs share it), ``None`` when none is built."""
+    found = sorted((Path(root) / "first_stage").glob(f"{sea}-s_surface-*-seed{seed}-*"))
+    found = [f for f in found if (f / "proposer.pt").exists()]
+    return found[-1] if found else None
 
 
 def read_eval(root: Path, job: Job) -> dict[str, dict[str, object]] | None:
@@ -35,15 +44,8 @@ def read_eval(root: Path, job: Job) -> dict[str, dict[str, object]] | None:
     if not path.exists():
         return None
     with open(path, newline="") as handle:
-        return {row["policy"]: {k: _number(v) for k, v in row.items()}
+        return {row["policy"]: {k: parse_number(v) for k, v in row.items()}
                 for row in csv.DictReader(handle)}  # fmt: skip
-
-
-def _number(text: str):
-    try:
-        return float(text)
-    except ValueError:
-        return text
 
 
 def mean_std(values: Sequence[float]) -> tuple[float, float]:

@@ -23,7 +23,7 @@ from torchrl_auv.report.paper.grid import (
     MAIN_SEA,
     Job,
 )
-from torchrl_auv.report.paper.output import job_rows, write_table
+from torchrl_auv.report.paper.output import first_stage_folder, job_rows, write_table
 from torchrl_auv.report.paper.published import TABLE2, TABLE3
 
 __all__ = ["ablation_tables", "table2", "table3", "table3_fixed"]
@@ -159,8 +159,7 @@ def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5) -> dic
     if not config.exists():
         return {"sampler": "", "proposer_s_per_decision": float("nan")}
     p = yaml.safe_load(config.read_text())["proposer"]
-    found = sorted((Path(root) / "first_stage").glob(f"{MAIN_SEA}-s_surface-*-seed{seed}-*"))
-    proposer = DiffusionProposer.load(found[-1] / "proposer.pt")
+    proposer = DiffusionProposer.load(first_stage_folder(root, MAIN_SEA, seed) / "proposer.pt")
     proposer.configure_sampling(num_candidates=p["num_candidates"], sampler=p["sampler"],
                                 num_inference_steps=p["num_inference_steps"])  # fmt: skip
     env = make_history_env(MAIN_SEA, seed=100000, num_envs=1, history=p["history"])
