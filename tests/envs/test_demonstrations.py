@@ -170,3 +170,25 @@ def test_batches_do_not_depend_on_the_number_of_workers():
     torch.testing.assert_close(one["observation"], two["observation"])
     torch.testing.assert_close(one["action_chunk"], two["action_chunk"])
     assert not torch.equal(one["observation"][:8], one["observation"][8:])  # new scenes
+
+
+def test_a_sampling_policys_batches_depend_on_seed_and_batch_alone():
+    """A DAgger round's proposer samples its candidates from the global RNG: each batch is
+    seeded by (seed, batch), so the data are the same with 1 or 2 worker processes and on a
+    second run (they were not: a worker's RNG state depended on which batches it took)."""
+    from functools import partial
+
+    from torchrl_auv.envs.demonstrations import collect_demonstration_batches
+    from torchrl_auv.training.first_stage_build import _dagger_policy, untrained_proposer
+
+    torch.manual_seed(0)
+    model = {"noise_model": "mlp", "hidden": 16, "cond_dim": 8, "depth": 1,
+             "schedule": "linear", "num_train_steps": 50}  # fmt: skip
+    proposer = untrained_proposer(37, 3, history=2, horizon=2, model=model)
+    proposer.configure_sampling(num_inference_steps=2, sampler="ddim")
+    options = {"env": "data_collection", "episodes": 1, "max_steps": 6, "horizon": 2,
+               "history": 2, "seed": 3, "policy": partial(_dagger_policy, proposer)}  # fmt: skip
+    runs = [collect_demonstration_batches(2, workers=w, **options) for w in (1, 2, 2)]
+    for other in runs[1:]:
+        torch.testing.assert_close(runs[0]["executed"], other["executed"], rtol=0, atol=0)
+    assert not torch.equal(runs[0]["executed"][:12], runs[0]["executed"][12:])  # new scenes

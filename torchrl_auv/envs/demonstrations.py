@@ -207,7 +207,11 @@ def batch_seed(seed: int, batch: int) -> int:
 
 def _collect_batch(batch: int, seed: int, options: dict) -> TensorDict:
     torch.set_num_threads(1)
-    data = collect_demonstrations(seed=batch_seed(seed, batch), **options)
+    # a policy that samples (the proposer in a DAgger round) draws from the global RNG: seed
+    # it per batch, so the batch depends on (seed, batch) alone, not on which process ran it
+    with torch.random.fork_rng():
+        torch.manual_seed(batch_seed(seed, batch))
+        data = collect_demonstrations(seed=batch_seed(seed, batch), **options)
     data["batch"] = torch.full(data.batch_size, batch, dtype=torch.int64)
     return data
 
