@@ -192,3 +192,62 @@ def test_a_sampling_policys_batches_depend_on_seed_and_batch_alone():
     for other in runs[1:]:
         torch.testing.assert_close(runs[0]["executed"], other["executed"], rtol=0, atol=0)
     assert not torch.equal(runs[0]["executed"][:12], runs[0]["executed"][12:])  # new scenes
+
+
+def _spawned_children(parent: int) -> list[int]:
+    """The ``multiprocessing`` spawn workers whose parent is ``parent`` (Linux ``/proc``)."""
+    from pathlib import Path
+
+    children = []
+    for proc in Path("/proc").iterdir():
+        try:
+            stat = (proc / "stat").read_text()
+            cmdline = (proc / "cmdline").read_bytes()
+        except (OSError, ValueError):
+            continue
+        if int(stat.rsplit(")", 1)[1].split()[1]) == parent and b"spawn_main" in cmdline:
+            children.append(int(proc.name))
+    return children
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_collection_workers_end_when_their_parent_is_killed():
+    """kill -9 of a process collecting demonstrations on two workers (a first-stage build)
+    leaves no worker behind (they used to collect on as orphans)."""
+    import os
+    import signal
+    import time
+
+    script = (
+        "from torchrl_auv.envs.demonstrations import collect_demonstration_batches\n"
+        "if __name__ == '__main__':\n"
+        "    collect_demonstration_batches(2, workers=2, env='data_collection', episodes=2,\n"
+        "                                  max_steps=100000, horizon=2, history=2)\n"
+    )  # fmt: skip
+    parent = subprocess.Popen([sys.executable, "-c", script],
+                              env={**os.environ, "OMP_NUM_THREADS": "1"})  # fmt: skip
+    deadline = time.monotonic() + 120
+    workers: list[int] = []
+    while len(workers) < 2 and time.monotonic() < deadline:
+        time.sleep(0.5)
+        workers = _spawned_children(parent.pid)
+    try:
+        assert len(workers) == 2, f"expected 2 collection workers, found {workers}"
+    finally:
+        parent.send_signal(signal.SIGKILL)
+        parent.wait()
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:
+        alive = []
+        for worker in workers:
+            try:
+                os.kill(worker, 0)
+                alive.append(worker)
+            except ProcessLookupError:
+                pass
+        if not alive:
+            return
+        time.sleep(0.2)
+    for worker in alive:
+        os.kill(worker, signal.SIGKILL)
+    raise AssertionError(f"workers {alive} outlived their killed parent by 20 s")

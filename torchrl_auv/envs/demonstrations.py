@@ -258,8 +258,11 @@ def collect_demonstration_batches(
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
+        from torchrl_auv.processes import end_with_parent
+
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(workers, batches), mp_context=context) as pool:
+        with ProcessPoolExecutor(min(workers, batches), mp_context=context,
+                                 initializer=end_with_parent) as pool:  # fmt: skip
             futures = [pool.submit(_collect_batch, b, seed, options) for b in numbers]
             parts = [future.result() for future in futures]
     episodes = 0

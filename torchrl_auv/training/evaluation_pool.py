@@ -16,15 +16,15 @@ nested function); one that is not is named before any work.
 from __future__ import annotations
 
 import multiprocessing
-import os
 import pickle
-import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 import torch
 from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from torchrl_auv.processes import end_with_parent
 
 __all__ = ["RowWorker", "evaluate_row", "evaluate_rows"]
 
@@ -53,16 +53,7 @@ def _start_worker(threads: int, ticks) -> None:
     global _TICKS
     torch.set_num_threads(threads)
     _TICKS = ticks
-    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
-
-
-def _exit_with_parent(parent: int, every_s: float = 0.5) -> None:
-    """End this worker once its parent is gone: a parent killed with SIGKILL never shuts the
-    pool down, and the worker, which holds its own end of the job queue, would wait on it
-    forever (measured: orphans still alive 180 s after a kill -9)."""
-    while os.getppid() == parent:
-        time.sleep(every_s)
-    os._exit(1)
+    end_with_parent()  # a kill -9 of the training process leaves no worker behind
 
 
 def _tick() -> None:
