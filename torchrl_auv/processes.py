@@ -5,15 +5,16 @@ pool shuts it down; a parent killed by ``SIGKILL`` (or by ``SIGTERM``, whose def
 skips the shutdown) never does, and its workers run on as orphans (measured: the demonstration
 workers of a killed first-stage build were still collecting 30 minutes later, the evaluation
 workers of a killed training run 180 s later). Pass :func:`end_with_parent` as the pool's
-``initializer`` (or call it from one): the worker ends itself within ``every_s`` of its
-parent's death.
+``initializer`` with the parent's pid in ``initargs`` (or call it from one): the worker ends
+itself within ``every_s`` of its parent's death, also one that died while the worker started.
 
 Example:
-    >>> import multiprocessing
+    >>> import multiprocessing, os
     >>> from concurrent.futures import ProcessPoolExecutor
     >>> from torchrl_auv.processes import end_with_parent
     >>> context = multiprocessing.get_context("spawn")
-    >>> with ProcessPoolExecutor(1, mp_context=context, initializer=end_with_parent) as pool:
+    >>> with ProcessPoolExecutor(1, mp_context=context, initializer=end_with_parent,
+    ...                          initargs=(os.getpid(),)) as pool:
     ...     pool.submit(abs, -3).result()
     3
 """
@@ -27,11 +28,17 @@ import time
 __all__ = ["end_with_parent"]
 
 
-def end_with_parent(every_s: float = 0.5) -> None:
-    """In a worker process: end it (``os._exit(1)``) once its parent is gone, checked every
-    ``every_s`` seconds by a daemon thread."""
-    thread = threading.Thread(target=_exit_with_parent, args=(os.getppid(), every_s),
-                              daemon=True, name="end-with-parent")  # fmt: skip
+def end_with_parent(parent: int | None = None, every_s: float = 0.5) -> None:
+    """In a worker process: end it (``os._exit(1)``) once ``parent`` is gone, checked every
+    ``every_s`` seconds by a daemon thread.
+
+    ``parent``: the pid of the process that made the pool (pass ``os.getpid()`` in
+    ``initargs``). Without it, the worker's parent at the time the initializer runs, which is
+    already the reaper if the parent died while the worker was still starting (importing
+    torch takes seconds), so such a worker would run on: pass it."""
+    parent = os.getppid() if parent is None else parent
+    thread = threading.Thread(target=_exit_with_parent, args=(parent, every_s), daemon=True,
+                              name="end-with-parent")  # fmt: skip
     thread.start()
 
 

@@ -213,7 +213,8 @@ def _spawned_children(parent: int) -> list[int]:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_collection_workers_end_when_their_parent_is_killed():
     """kill -9 of a process collecting demonstrations on two workers (a first-stage build)
-    leaves no worker behind (they used to collect on as orphans)."""
+    leaves no worker behind (they used to collect on as orphans), also when the workers were
+    still starting."""
     import os
     import signal
     import time
@@ -228,8 +229,8 @@ def test_collection_workers_end_when_their_parent_is_killed():
                               env={**os.environ, "OMP_NUM_THREADS": "1"})  # fmt: skip
     deadline = time.monotonic() + 120
     workers: list[int] = []
-    while len(workers) < 2 and time.monotonic() < deadline:
-        time.sleep(0.5)
+    while len(workers) < 2 and time.monotonic() < deadline:  # killed as soon as they exist,
+        time.sleep(0.05)  # while they still import torch: before their initializer has run
         workers = _spawned_children(parent.pid)
     try:
         assert len(workers) == 2, f"expected 2 collection workers, found {workers}"

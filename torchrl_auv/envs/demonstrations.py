@@ -256,13 +256,17 @@ def collect_demonstration_batches(
         parts = [_collect_batch(b, seed, options) for b in numbers]
     else:
         import multiprocessing
+        import os
         from concurrent.futures import ProcessPoolExecutor
 
         from torchrl_auv.processes import end_with_parent
 
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(workers, batches), mp_context=context,
-                                 initializer=end_with_parent) as pool:  # fmt: skip
+        # workers end with this process, also when it dies while they start
+        parent = (os.getpid(),)
+        pool = ProcessPoolExecutor(min(workers, batches), mp_context=context,
+                                   initializer=end_with_parent, initargs=parent)  # fmt: skip
+        with pool:
             futures = [pool.submit(_collect_batch, b, seed, options) for b in numbers]
             parts = [future.result() for future in futures]
     episodes = 0

@@ -16,6 +16,7 @@ nested function); one that is not is named before any work.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import pickle
 import time
 from collections.abc import Callable, Sequence
@@ -49,11 +50,11 @@ def evaluate_row(make_env, build, sea_state: str, name: str, *, seed: int, steps
     return {"sea_state": sea_state, "policy": name, **stats}
 
 
-def _start_worker(threads: int, ticks) -> None:
+def _start_worker(threads: int, ticks, parent: int) -> None:
     global _TICKS
     torch.set_num_threads(threads)
     _TICKS = ticks
-    end_with_parent()  # a kill -9 of the training process leaves no worker behind
+    end_with_parent(parent)  # a kill -9 of the training process leaves no worker behind
 
 
 def _tick() -> None:
@@ -103,9 +104,9 @@ def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, wor
     pickled = {name: _dumps(f"the policy of row {name!r}", build) for _, name, build in jobs}
     context = multiprocessing.get_context("spawn")
     ticks = context.Value("q", 0)
+    start = (torch.get_num_threads(), ticks, os.getpid())
     with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context,
-                             initializer=_start_worker,
-                             initargs=(torch.get_num_threads(), ticks)) as pool:  # fmt: skip
+                             initializer=_start_worker, initargs=start) as pool:  # fmt: skip
         futures = [pool.submit(_pickled_row, make_env, pickled[name], sea_state, name, seed,
                                steps) for sea_state, name, _ in jobs]  # fmt: skip
         pending = set(futures)
@@ -137,8 +138,9 @@ class RowWorker:
     def __init__(self, make_env, sea_state: str, *, seed: int, steps: int) -> None:
         _dumps("make_env", make_env)
         context = multiprocessing.get_context("spawn")
+        threads, parent = torch.get_num_threads(), os.getpid()
         self.pool = ProcessPoolExecutor(1, mp_context=context, initializer=_start_worker,
-                                        initargs=(torch.get_num_threads(), None))  # fmt: skip
+                                        initargs=(threads, None, parent))  # fmt: skip
         self.job = (make_env, sea_state, seed, steps)
         self.pending: list[tuple[int, object]] = []
 
