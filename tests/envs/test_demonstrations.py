@@ -237,7 +237,7 @@ def test_collection_workers_end_when_their_parent_is_killed():
     finally:
         parent.send_signal(signal.SIGKILL)
         parent.wait()
-    deadline = time.monotonic() + 20
+    deadline = time.monotonic() + 60  # a worker still importing torch on a loaded machine
     while time.monotonic() < deadline:
         alive = []
         for worker in workers:
@@ -251,4 +251,4 @@ def test_collection_workers_end_when_their_parent_is_killed():
         time.sleep(0.2)
     for worker in alive:
         os.kill(worker, signal.SIGKILL)
-    raise AssertionError(f"workers {alive} outlived their killed parent by 20 s")
+    raise AssertionError(f"workers {alive} outlived their killed parent by 60 s")

@@ -259,7 +259,7 @@ def collect_demonstration_batches(
         import os
         from concurrent.futures import ProcessPoolExecutor
 
-        from torchrl_auv.processes import end_with_parent
+        from torchrl_auv.envs.processes import end_with_parent
 
         context = multiprocessing.get_context("spawn")
         # workers end with this process, also when it dies while they start

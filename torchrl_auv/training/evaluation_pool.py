@@ -25,7 +25,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 import torch
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from torchrl_auv.processes import end_with_parent
+from torchrl_auv.envs.processes import end_with_parent
 
 __all__ = ["RowWorker", "evaluate_row", "evaluate_rows"]
 

@@ -11,7 +11,7 @@ itself within ``every_s`` of its parent's death, also one that died while the wo
 Example:
     >>> import multiprocessing, os
     >>> from concurrent.futures import ProcessPoolExecutor
-    >>> from torchrl_auv.processes import end_with_parent
+    >>> from torchrl_auv.envs.processes import end_with_parent
     >>> context = multiprocessing.get_context("spawn")
     >>> with ProcessPoolExecutor(1, mp_context=context, initializer=end_with_parent,
     ...                          initargs=(os.getpid(),)) as pool:
