@@ -262,11 +262,9 @@ def collect_demonstration_batches(
         from torchrl_auv.envs.processes import end_with_parent
 
         context = multiprocessing.get_context("spawn")
-        # workers end with this process, also when it dies while they start
-        parent = (os.getpid(),)
-        pool = ProcessPoolExecutor(min(workers, batches), mp_context=context,
-                                   initializer=end_with_parent, initargs=parent)  # fmt: skip
-        with pool:
+        with ProcessPoolExecutor(min(workers, batches), mp_context=context,
+                                 initializer=end_with_parent,  # a killed build leaves none
+                                 initargs=(os.getpid(),)) as pool:  # fmt: skip
             futures = [pool.submit(_collect_batch, b, seed, options) for b in numbers]
             parts = [future.result() for future in futures]
     episodes = 0

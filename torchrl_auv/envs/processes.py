@@ -28,15 +28,13 @@ import time
 __all__ = ["end_with_parent"]
 
 
-def end_with_parent(parent: int | None = None, every_s: float = 0.5) -> None:
+def end_with_parent(parent: int, every_s: float = 0.5) -> None:
     """In a worker process: end it (``os._exit(1)``) once ``parent`` is gone, checked every
     ``every_s`` seconds by a daemon thread.
 
-    ``parent``: the pid of the process that made the pool (pass ``os.getpid()`` in
-    ``initargs``). Without it, the worker's parent at the time the initializer runs, which is
-    already the reaper if the parent died while the worker was still starting (importing
-    torch takes seconds), so such a worker would run on: pass it."""
-    parent = os.getppid() if parent is None else parent
+    ``parent``: the pid of the process that made the pool (``os.getpid()`` there, passed in
+    ``initargs``), not ``os.getppid()`` read here: that is already the reaper if the parent
+    died while this worker was still starting (importing torch takes seconds)."""
     thread = threading.Thread(target=_exit_with_parent, args=(parent, every_s), daemon=True,
                               name="end-with-parent")  # fmt: skip
     thread.start()
