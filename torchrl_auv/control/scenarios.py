@@ -5,8 +5,9 @@
 * :func:`tracking_schedule` is the fixed 300 s evaluation sequence of depth and heading
   setpoints behind the paper's Table III layout; :data:`TUNING_SCHEDULE` is the different,
   simpler scenario the controllers' default gains were chosen on.
-* :func:`tracking_errors` gives mean and standard deviation of |heading error| (rad) and
-  |depth error| (m) between setpoints and the true state over all physics steps.
+* :func:`tracking_errors` gives mean and standard deviation of the absolute heading error
+  (rad) and the absolute depth error (m) between setpoints and the true state over all
+  physics steps.
 
 Controllers here see the true state unless an observer is passed; the environments and
 :mod:`torchrl_auv.report.tracking` feed them the Kalman-filter estimate.
@@ -148,7 +149,8 @@ def simulate(
 
 
 def tracking_errors(trace: Trace) -> dict[str, torch.Tensor]:
-    """Mean and std over time of |heading error| (rad) and |depth error| (m), per run ``[*B]``.
+    """Mean and std over time of the absolute heading error (rad) and depth error (m), per run
+    ``[*B]``.
 
     The first row (the initial state, before any command) is excluded.
     """

@@ -129,12 +129,13 @@ class DataCollectionEnv(EnvBase):
 
     .. math::
 
-        c_j = w_d \min(1, \tfrac{d_j}{D}) + w_p \min(1, \tfrac{\max(0, -\Delta_j)}{2\,\mathrm{m}})
-            + w_e \min(1, \tfrac{P_j}{500\,\mathrm{W}}) + w_c 1[\text{collision}_j]
-            + w_v 1[\text{violation}_j]
+        c_j = {} & w_d \min(1, \tfrac{d_j}{D})
+            + w_p \min(1, \tfrac{\max(0, -\Delta_j)}{2\,\mathrm{m}})
+            + w_e \min(1, \tfrac{P_j}{500\,\mathrm{W}}) \\
+            & + w_c 1[\text{collision}_j] + w_v 1[\text{violation}_j]
             + \tfrac{1}{N}\big(w_b \tfrac{\sum_i b_i}{M C_{max}}
-            + w_o \min(1, \tfrac{N_{DO}}{\sum_i \lambda_i})\big)
-            \;(+\ c_{term} \text{ for the AUV that ends the episode}),
+            + w_o \min(1, \tfrac{N_{DO}}{\sum_i \lambda_i})\big) \\
+            & (+\ c_{term} \text{ for the AUV that ends the episode}),
 
     with :math:`d_j` the distance to the target, :math:`\Delta_j` the progress toward it in the
     decision, :math:`P_j` the EC model's power at the AUV's mean speed through the water

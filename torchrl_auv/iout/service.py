@@ -2,21 +2,21 @@ r"""Scene reset and the per-decision update of the sensor network (arrivals, ser
 
 **State** (a TensorDict with batch ``[*B]``, returned new by every function, inputs untouched):
 
-=====================================  =============  ==========================================
-key                                    shape          meaning
-=====================================  =============  ==========================================
-``("terrain", "depth")``               ``[*B, G, G]`` seabed depth grid (m)
-``("nodes", "position")``              ``[*B, M, 3]`` node positions, NED (m)
-``("nodes", "rate")``                  ``[*B, M]``    Poisson rate (packets/decision)
-``("nodes", "buffer")``                ``[*B, M]``    buffer fill (packets)
-``("nodes", "services")``              ``[*B, M]``    services completed in the episode (int64)
-``("auvs", "target")``                 ``[*B, N]``    target node index, ``-1`` for none (int64)
-``("auvs", "in_service")``             ``[*B, N]``    hovering in service during the next decision
-``("auvs", "service_remaining")``      ``[*B, N]``    hover time left (s)
-``("auvs", "service_rate")``           ``[*B, N]``    link rate of the ongoing service (bit/s)
-``("auvs", "target_distance")``        ``[*B, N]``    3-D distance to the target (m), 0 if none
-``"decision"``                         ``[*B]``       decisions taken (int64)
-=====================================  =============  ==========================================
+=====================================  ==============  ============================================
+key                                    shape           meaning
+=====================================  ==============  ============================================
+``("terrain", "depth")``               ``[*B, G, G]``  seabed depth grid (m)
+``("nodes", "position")``              ``[*B, M, 3]``  node positions, NED (m)
+``("nodes", "rate")``                  ``[*B, M]``     Poisson rate (packets/decision)
+``("nodes", "buffer")``                ``[*B, M]``     buffer fill (packets)
+``("nodes", "services")``              ``[*B, M]``     services completed in the episode (int64)
+``("auvs", "target")``                 ``[*B, N]``     target node index, ``-1`` for none (int64)
+``("auvs", "in_service")``             ``[*B, N]``     hovering in service during the next decision
+``("auvs", "service_remaining")``      ``[*B, N]``     hover time left (s)
+``("auvs", "service_rate")``           ``[*B, N]``     link rate of the ongoing service (bit/s)
+``("auvs", "target_distance")``        ``[*B, N]``     3-D distance to the target (m), 0 if none
+``"decision"``                         ``[*B]``        decisions taken (int64)
+=====================================  ==============  ============================================
 
 **One decision** (:func:`step`), given the true AUV positions at its end:
 

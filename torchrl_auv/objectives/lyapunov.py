@@ -9,11 +9,12 @@ when present, else :math:`-r`), a Lyapunov critic :math:`L(s, a) = \mathrm{form}
 
     \mathcal L_{L} &= \mathbb E\big[(L(s, a) - c - \gamma (1 - d)\,
         L_{target}(s', a'))^2\big],\ a' \sim \pi(s') \\
-    \Delta L &= L(s', a') - L(s, a) + \alpha c \quad (\text{mode "lac"}) \qquad
-        L(s, \tilde a) - L(s, a) + \alpha c,\ \tilde a \sim \pi(s) \quad (\text{mode "paper"}) \\
-    \mathcal L_{\pi} &= \bar\lambda\,\mathbb E[\Delta L] + \bar\beta\,\mathbb E[\log\pi]
-    \qquad \mathcal L_\lambda = -\log\lambda\ \mathbb E[\Delta L]^{\perp} \qquad
-    \mathcal L_\beta = -\log\beta\ \mathbb E[\log\pi + \bar{\mathcal H}]^{\perp}
+    \Delta L &= L(s', a') - L(s, a) + \alpha c \quad (\text{mode "lac"}) \\
+    \Delta L &= L(s, \tilde a) - L(s, a) + \alpha c,\ \tilde a \sim \pi(s)
+        \quad (\text{mode "paper"}) \\
+    \mathcal L_{\pi} &= \bar\lambda\,\mathbb E[\Delta L] + \bar\beta\,\mathbb E[\log\pi] \\
+    \mathcal L_\lambda &= -\log\lambda\ \mathbb E[\Delta L]^{\perp} \\
+    \mathcal L_\beta &= -\log\beta\ \mathbb E[\log\pi + \bar{\mathcal H}]^{\perp}
 
 (bars and :math:`\perp`: no gradient). Each term sends gradient only to its own parameters:
 :math:`\mathcal L_L` to the critic, :math:`\mathcal L_\pi` to the actor (through the sampled
@@ -51,9 +52,9 @@ critic learns the ``cost`` key, the task cost). With it, :math:`L` learns the ``
 
 .. math::
 
-    \mathcal L_{Q} = \mathbb E\big[(Q(s, a) - c^{task} - \gamma (1 - d)\,
-        Q_{target}(s', a'))^2\big] \qquad
-    \mathcal L_{\pi} = \mathbb E[Q(s, \tilde a)] + \bar\lambda\,\mathbb E[\Delta L]
+    \mathcal L_{Q} &= \mathbb E\big[(Q(s, a) - c^{task} - \gamma (1 - d)\,
+        Q_{target}(s', a'))^2\big] \\
+    \mathcal L_{\pi} &= \mathbb E[Q(s, \tilde a)] + \bar\lambda\,\mathbb E[\Delta L]
         + \bar\beta\,\mathbb E[\log\pi],\ \tilde a \sim \pi(s).
 """
 

@@ -1,7 +1,7 @@
 r"""Underwater acoustic link between a sensor node and an AUV (``shared/spec/data_collection.md``).
 
 With the frequency :math:`f` in kHz, the ambient-noise power spectral densities (dB re
-:math:`\mu`Pa per Hz) are
+:math:`\mu\mathrm{Pa}` per Hz) are
 
 .. math::
 

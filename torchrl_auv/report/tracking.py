@@ -3,7 +3,7 @@
 Each controller runs the fixed 300 s :func:`~torchrl_auv.control.scenarios.tracking_schedule`
 on the REMUS-100 in the ``ideal``, ``es`` and ``ves`` sea states, seeing the vehicle through
 its sensors and the Kalman filter (:class:`KalmanObserver`), and the table reports mean and
-standard deviation of |heading error| (rad) and |depth error| (m) between the setpoints and
+standard deviation of the absolute heading error (rad) and depth error (m) between the setpoints and
 the *true* state over all physics steps, averaged over independent runs.
 """
 

@@ -67,29 +67,28 @@ def rpm_for_thrust(
     thrust: torch.Tensor, speed: torch.Tensor, params: Remus100Params | None = None
 ) -> torch.Tensor:
     r"""The propeller speed that gives ``thrust`` at the absolute speed ``speed``: the inverse
-        of :func:`propeller_forces` in :math:`n > 0`.
+    of :func:`propeller_forces` in :math:`n > 0`.
 
-        The thrust is a quadratic in :math:`n_s = n/60`,
-        :math:`X_p/(
-    ho D_p^4) = K_{T0} n_s^2 + a\,(V_a/D_p)\,n_s` with
-        :math:`a = (K_{T,max} - K_{T0})/J_{max} < 0`; its positive root is returned. Because
-        :math:`V_a = 0.944\,U` uses the speed over ground (the model's, after PVS), a propeller
-        turning at the rpm that holds a speed through still water pushes harder on a vehicle
-        held still against a current of that speed: holding station needs fewer rpm.
+    The thrust is a quadratic in :math:`n_s = n/60`,
+    :math:`X_p/(\rho D_p^4) = K_{T0} n_s^2 + a\,(V_a/D_p)\,n_s` with
+    :math:`a = (K_{T,max} - K_{T0})/J_{max} < 0`; its positive root is returned. Because
+    :math:`V_a = 0.944\,U` uses the speed over ground (the model's, after PVS), a propeller
+    turning at the rpm that holds a speed through still water pushes harder on a vehicle
+    held still against a current of that speed: holding station needs fewer rpm.
 
-        Args:
-            thrust: wanted thrust (N, >= 0), ``[*B]``.
-            speed: the vehicle's absolute speed :math:`U` (m/s), ``[*B]``.
-            params: vehicle parameters (default REMUS-100).
+    Args:
+        thrust: wanted thrust (N, >= 0), ``[*B]``.
+        speed: the vehicle's absolute speed :math:`U` (m/s), ``[*B]``.
+        params: vehicle parameters (default REMUS-100).
 
-        Returns:
-            ``[*B]`` propeller speed (rpm, >= 0).
+    Returns:
+        ``[*B]`` propeller speed (rpm, >= 0).
 
-        >>> thrust, _ = propeller_forces(torch.tensor(600.0), torch.tensor(1.0))
-        >>> round(rpm_for_thrust(thrust, torch.tensor(1.0)).item(), 3)  # the round trip
-        600.0
-        >>> round(rpm_for_thrust(thrust, torch.tensor(0.0)).item())  # the same thrust at rest
-        372
+    >>> thrust, _ = propeller_forces(torch.tensor(600.0), torch.tensor(1.0))
+    >>> round(rpm_for_thrust(thrust, torch.tensor(1.0)).item(), 3)  # the round trip
+    600.0
+    >>> round(rpm_for_thrust(thrust, torch.tensor(0.0)).item())  # the same thrust at rest
+    372
     """
     p = DEFAULT_PARAMS if params is None else params
     linear = (p.kt_max - p.kt_0) / p.j_max * p.wake_fraction_factor * speed / p.prop_diameter

@@ -1,5 +1,26 @@
-"""Replay a reference CSV through the model (format of ``tests/data/remus100/README.md``;
-``python -m torchrl_auv.cli.remus100 replay IN.csv OUT.csv``)."""
+"""Replay a reference CSV through the model: ``python -m torchrl_auv.cli.remus100 replay IN.csv
+OUT.csv`` starts from row 0's state and applies each later row's commands, one step of ``dt``
+(0.05 s) per row, writing the simulated rows in the same format.
+
+**The CSV format** (one row per step, a header row first; the repository's reference runs
+of Fossen's Python Vehicle Simulator, ``tests/data/remus100/``, are in it):
+
+=================================  ========================================  =============
+column                             meaning                                   unit
+=================================  ========================================  =============
+step, t                            step index k and k x dt                   -, s
+cmd_delta_r, cmd_delta_s, cmd_n    rudder, stern-plane and propeller         rad, rad, rpm
+                                   commands applied in the step that
+                                   produced the row (nan on row 0)
+Vc, beta_c                         current speed and direction               m/s, rad
+x, y, z                            NED position, z down                      m
+phi, theta, psi                    Euler angles (zyx), not wrapped           rad
+u, v, w, p, q, r                   body-frame velocity and angular rates     m/s, rad/s
+delta_r, delta_s, n                actuator states after the step            rad, rad, rpm
+=================================  ========================================  =============
+
+Other columns are copied through; a missing column is a ``ValueError`` naming it.
+"""
 
 from __future__ import annotations
 
