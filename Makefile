@@ -4,6 +4,7 @@
 #   make table3 set up, then run the Table III tracking experiment (recipes/main.py, runs/)
 #   make test   set up, then run the test suite (the command CI runs)
 #   make bench  set up, then run every benchmark in benchmarks/
+#   make docs   set up, then build the documentation site into docs/_build/html (warnings are errors)
 #   make lint   ruff check + format check
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
@@ -16,7 +17,7 @@ export OMP_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export WANDB_MODE ?= offline
 
-.PHONY: setup demo table3 test test-all bench lint clean
+.PHONY: setup demo table3 test test-all bench docs lint clean
 
 setup: $(STAMP)
 
@@ -43,6 +44,10 @@ test-all: $(STAMP)
 
 bench: $(STAMP)
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
+
+docs: $(STAMP)
+	rm -rf docs/api/_generated
+	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
