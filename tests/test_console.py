@@ -1,0 +1,56 @@
+"""``torchrl-auv``, the console entry point: each command runs its recipe script."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from torchrl_auv.cli.main import COMMANDS, command_line, main, recipes_dir
+
+CONSOLE = Path(sys.executable).parent / "torchrl-auv"
+
+
+def test_every_command_names_a_script_of_the_recipes_folder():
+    for command, (script, _) in COMMANDS.items():
+        assert (recipes_dir() / script).is_file(), command
+    assert command_line(["train", "framework=sac"]) == [str(recipes_dir() / "train.py"),
+                                                         "framework=sac"]  # fmt: skip
+    assert command_line(["paper", "budget=quick"])[0].endswith("paper/run_all.py")
+
+
+WRONG = [(["trian"], "command must be one of"), ([], "command must be one of"),
+         (["sweep"], "sweep needs the sweep's name"),
+         (["sweep", "seed=1"], "sweep needs the sweep's name")]  # fmt: skip
+
+
+@pytest.mark.parametrize(("argv", "named"), WRONG)
+def test_a_wrong_command_is_named(argv, named):
+    with pytest.raises(ValueError, match=named):
+        command_line(argv)
+
+
+def test_usage_and_a_wrong_command_exit_with_the_usage(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["--help"])
+    assert stop.value.code == 0 and "torchrl-auv COMMAND" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as stop:
+        main(["trian", "framework=sac"])
+    assert stop.value.code == 2 and "got 'trian'" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not CONSOLE.is_file(), reason="the package is not installed in this venv")
+def test_train_runs_the_recipe_from_any_folder(tmp_path):
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
+    run_dir = tmp_path / "run"
+    done = subprocess.run(
+        [str(CONSOLE), "train", "framework=sac", "preset=quick", "collector.total_frames=200",
+         "collector.frames_per_batch=100", "collector.init_random_frames=100",
+         "optim.updates_per_batch=4", "eval.steps=20", "logger.backend=", f"run_dir={run_dir}"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "- frames: 200" in (run_dir / "summary.md").read_text()
