@@ -103,6 +103,7 @@ def test_a_run_killed_with_sigkill_resumes_from_its_latest_checkpoint(tmp_path):
     assert "resume=" in (run_dir / ".hydra" / "overrides.yaml").read_text()
     assert "resumed" in (run_dir / "train.log").read_text()
     assert f"resumed {run_dir} at {reached} frames" in result.stdout + result.stderr
+    assert "resumed without the replay buffer" in result.stdout + result.stderr  # said, not silent
     summary = (run_dir / "summary.md").read_text()
     assert "- frames: 1000" in summary  # continued the count, did not start over
     steps = _checkpoint_steps(run_dir)

@@ -36,9 +36,13 @@ def test_overrides_give_each_framework_only_its_groups(tmp_path):
     assert f"run_dir={tmp_path}/jobs/diffusion_lac/ves/s_surface/seed0" in lac
     assert f"proposer.cache_dir={tmp_path}/first_stage" in lac
     assert "eval.sea_states=[ves]" in lac and "preset=paper" in lac
+    # a paper job resumed in a later sitting goes on with its replay buffer, sized to its frames
+    assert "checkpoint.replay_buffer=True" in lac and "replay_buffer.size=50000" in lac
     alone = Job("diffusion", "es", "smc", 0).overrides("paper", root=tmp_path, frames=50000)
     assert "collector.total_frames=1000" in alone  # the proposer alone trains nothing
     assert "collector.total_frames=50000" not in alone
+    assert not any(o.startswith(("replay_buffer.", "checkpoint.replay")) for o in alone)
+    assert not any(o.startswith(("replay_buffer.", "checkpoint.replay")) for o in sac)  # quick
     variant = experiment_jobs("sampler", (0,))[-1].overrides("paper", root=tmp_path)
     assert "eval.ranks=False" in variant and "proposer.sampler=ddim" in variant
 

@@ -112,6 +112,10 @@ def prepare_resume(
         frames, values = resume_latest(run_dir, checkpoint, progress)
         if values:
             log.info("resumed %s at %d frames", run_dir, frames)
+            if buffer is not None and "replay_buffer" not in modules:
+                log.warning("resumed without the replay buffer (checkpoint.replay_buffer=false): "
+                            "training goes on from an empty buffer, not the one the run had "
+                            "at %d frames", frames)  # fmt: skip
         else:  # stopped before its first checkpoint was complete: nothing to load
             log.warning("%s has no complete checkpoint yet: starting it again from frame 0",
                         run_dir)  # fmt: skip

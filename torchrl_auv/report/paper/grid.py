@@ -75,14 +75,17 @@ BUDGETS: dict[str, dict[str, dict[str, object]]] = {
         "": {"preset": "paper"},
         # the proposer alone is not trained after its first stage: its frames only act
         "diffusion": {"collector.total_frames": 1000},
+        # a grid runs over several sittings: a job resumed from a checkpoint goes on with
+        # its replay buffer (sized to the job's frames, so a checkpoint holds only them)
+        "replay": {"checkpoint.replay_buffer": True},
     },
 }  # fmt: skip
 #: the groups of :data:`BUDGETS` that apply to each framework (its config's groups and itself)
 _GROUPS = {
-    "sac": ("", "env", "collector", "optim", "checkpoint", "eval", "sac"),
+    "sac": ("", "env", "collector", "optim", "checkpoint", "replay", "eval", "sac"),
     "diffusion": ("", "env", "collector", "checkpoint", "eval", "proposer", "diffusion"),
-    "diffusion_rl": ("", "env", "collector", "optim", "checkpoint", "eval", "proposer"),
-    "diffusion_lac": ("", "env", "collector", "optim", "checkpoint", "eval", "proposer"),
+    "diffusion_rl": ("", "env", "collector", "optim", "checkpoint", "replay", "eval", "proposer"),
+    "diffusion_lac": ("", "env", "collector", "optim", "checkpoint", "replay", "eval", "proposer"),
 }
 
 
@@ -124,6 +127,11 @@ class Job:
             values.update(BUDGETS[budget].get(group, {}))
         if frames is not None and self.framework != "diffusion":
             values["collector.total_frames"] = int(frames)  # the proposer alone trains nothing
+        frames_of_job = values.get("collector.total_frames")
+        if values.get("checkpoint.replay_buffer") and frames_of_job:
+            # the buffer never evicts within the job (the same samples as the preset's 1e6)
+            # and a checkpoint stores its capacity, not its fill
+            values["replay_buffer.size"] = frames_of_job
         values.update({"env.sea_state": self.sea, "env.controller": self.controller,
                        "seed": self.seed, "eval.sea_states": f"[{self.sea}]",
                        "run_dir": str(root / "jobs" / self.name)})  # fmt: skip
