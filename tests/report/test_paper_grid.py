@@ -38,6 +38,7 @@ def test_overrides_give_each_framework_only_its_groups(tmp_path):
     assert "eval.sea_states=[ves]" in lac and "preset=paper" in lac
     # a paper job resumed in a later sitting goes on with its replay buffer, sized to its frames
     assert "checkpoint.replay_buffer=True" in lac and "replay_buffer.size=50000" in lac
+    assert "checkpoint.every_frames=10000" in lac
     alone = Job("diffusion", "es", "smc", 0).overrides("paper", root=tmp_path, frames=50000)
     assert "collector.total_frames=1000" in alone  # the proposer alone trains nothing
     assert "collector.total_frames=50000" not in alone

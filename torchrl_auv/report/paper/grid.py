@@ -76,7 +76,9 @@ BUDGETS: dict[str, dict[str, dict[str, object]]] = {
         # the proposer alone is not trained after its first stage: its frames only act
         "diffusion": {"collector.total_frames": 1000},
         # a grid runs over several sittings: a job resumed from a checkpoint goes on with
-        # its replay buffer (sized to the job's frames, so a checkpoint holds only them)
+        # its replay buffer (sized to the job's frames, so a checkpoint holds only them),
+        # from at most 10,000 frames back (~4 min of a training job)
+        "checkpoint": {"checkpoint.every_frames": 10000},
         "replay": {"checkpoint.replay_buffer": True},
     },
 }  # fmt: skip
