@@ -1,7 +1,8 @@
 """The wheel on its own: built from this checkout, installed into a fresh venv outside it.
 
-What a pip user gets, checked the way they would use it (slow: a venv with torch, TorchRL and
-their dependencies from the package index, then a short training run; about 5-10 minutes):
+What a pip user gets (the sdist, and the wheel built from it), checked the way they would use
+it (slow: a venv with torch, TorchRL and their dependencies from the package index, then a
+short training run; about 5-10 minutes):
 torch pinned first (as the Makefile does), the wheel next with its declared dependencies, then,
 from a folder outside the checkout with nothing of the checkout on ``sys.path``: the package
 imports, ships ``py.typed`` and its recipes, registers both gymnasium ids, builds both envs;
@@ -61,8 +62,9 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
     env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", WANDB_MODE="offline",
                HOME=str(tmp_path / "home"), PIP_DISABLE_PIP_VERSION_CHECK="1")  # fmt: skip
     dist = tmp_path / "dist"
-    _run([sys.executable, "-m", "build", "--wheel", "--outdir", str(dist), str(REPO)],
-         cwd=tmp_path, env=env)  # fmt: skip
+    # an sdist, then the wheel built from it (what `python -m build` does): what the wheel
+    # needs must be in the sdist too
+    _run([sys.executable, "-m", "build", "--outdir", str(dist), str(REPO)], cwd=tmp_path, env=env)
     (wheel,) = dist.glob("torchrl_auv-*.whl")
 
     venv.create(tmp_path / "venv", with_pip=True)
