@@ -1,10 +1,13 @@
 """ArtefactCache: one folder per values, reused; other values elsewhere; stale folders refused;
-a concurrent build of the same values happens once; a failed build leaves nothing behind."""
+a concurrent build of the same values happens once; a failed build leaves nothing behind; a
+resumable one cut short goes on in the next build."""
 
 from __future__ import annotations
 
 import json
 import multiprocessing
+import os
+import time
 
 import pytest
 
@@ -57,6 +60,42 @@ def test_a_failed_build_leaves_no_artefact_and_the_next_call_builds(tmp_path):
     assert [p.name for p in tmp_path.iterdir() if not p.name.endswith(".lock")] == []
     folder, built = cache.get_or_build("stage", {"seed": 0}, _build_counting)
     assert built and not (folder / "half.txt").exists()
+
+
+def test_a_resumable_build_goes_on_from_the_newest_build_cut_short(tmp_path):
+    """resumable=True: an interruption keeps the folder, the next build of the same values
+    gets it (the newest of several; the others are cleared); an error still leaves nothing."""
+    cache = ArtefactCache(tmp_path)
+    name = cache.folder("stage", {"seed": 0}).name
+
+    def first_phase_then_stop(folder):
+        (folder / "phase1.txt").write_text("done")
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        cache.get_or_build("stage", {"seed": 0}, first_phase_then_stop, resumable=True)
+    older = tmp_path / f".{name}.partial-111"  # a build killed before that one
+    older.mkdir()
+    (older / "stale.txt").write_text("old")
+    os.utime(older, (time.time() - 100, time.time() - 100))
+    seen = []
+
+    def go_on(folder):
+        seen.append(sorted(p.name for p in folder.iterdir()))
+        (folder / "phase2.txt").write_text("done")
+
+    folder, built = cache.get_or_build("stage", {"seed": 0}, go_on, resumable=True)
+    assert built and seen == [["phase1.txt"]]
+    assert sorted(p.name for p in folder.iterdir()) == ["phase1.txt", "phase2.txt", "values.json"]
+    assert not list(tmp_path.glob(".*.partial-*"))
+
+    def fail(folder):
+        (folder / "half.txt").write_text("half")
+        raise RuntimeError("a bug")
+
+    with pytest.raises(RuntimeError, match="a bug"):
+        cache.get_or_build("stage", {"seed": 1}, fail, resumable=True)
+    assert not list(tmp_path.glob(".*.partial-*"))
 
 
 def test_builds_cut_short_by_a_kill_are_cleared_by_the_next_build(tmp_path):

@@ -141,3 +141,52 @@ def test_building_or_reusing_the_first_stage_leaves_the_global_rng_alike(tmp_pat
     torch.manual_seed(7)
     assert not first_stage_from_config(_cfg(tmp_path)).built  # reuses
     torch.testing.assert_close(torch.rand(3), after_build)
+
+
+def test_a_build_cut_short_goes_on_to_the_artefact_an_uninterrupted_build_writes(
+    tmp_path, monkeypatch
+):
+    import torchrl_auv.training.first_stage_build as build
+
+    def built(folder):  # each build from the same global RNG state, as a fresh run's
+        torch.manual_seed(0)
+        return first_stage_from_config(_cfg(folder))
+
+    whole = built(tmp_path / "whole")
+    collect, calls = build.collect_demonstration_batches, []
+
+    def counted(*args, policy=None, **kwargs):
+        calls.append("dagger" if policy is not None else "expert")
+        if policy is not None and cut_short:
+            raise KeyboardInterrupt  # the sitting ends while the DAgger round collects
+        return collect(*args, policy=policy, **kwargs)
+
+    monkeypatch.setattr(build, "collect_demonstration_batches", counted)
+    pretrain = build.pretrain_proposer
+    monkeypatch.setattr(build, "pretrain_proposer", lambda *a, **k: calls.append("fit") or
+                        pretrain(*a, **k))  # fmt: skip
+    cut_short = True
+    with pytest.raises(KeyboardInterrupt):
+        built(tmp_path / "cut")
+    (kept,) = (tmp_path / "cut").glob(".*.partial-*")  # kept for the next build
+    assert json.loads((kept / build.PROGRESS_FILE).read_text())["done"] == ["pretraining"]
+    cut_short, calls[:] = False, []
+    resumed = built(tmp_path / "cut")
+    # the expert's demonstrations and the pretrained proposer were loaded, not made again
+    assert resumed.built and calls == ["dagger", "fit"]
+    assert not list((tmp_path / "cut").glob(".*.partial-*"))
+    assert sorted(p.name for p in resumed.folder.iterdir()) == sorted(
+        p.name for p in whole.folder.iterdir())  # fmt: skip
+    for name in ("proposer.pt", "proposer_bc.pt"):
+        one, other = (DiffusionProposer.load(f / name).state_dict() for f in
+                      (whole.folder, resumed.folder))  # fmt: skip
+        assert one.keys() == other.keys()
+        for key in one:
+            torch.testing.assert_close(one[key], other[key], rtol=0, atol=0, msg=key)
+    assert (whole.folder / "pretrain_loss.csv").read_text() == (
+        resumed.folder / "pretrain_loss.csv").read_text()  # fmt: skip
+    keep = ("samples", "overridden_samples", "dagger1_samples", "training_samples",
+            "pretraining_heldout_loss", "dagger1_heldout_loss", "heldout_loss")  # fmt: skip
+    metrics = [json.loads((f / "metrics.json").read_text()) for f in (whole.folder,
+                                                                       resumed.folder)]  # fmt: skip
+    assert {k: metrics[0][k] for k in keep} == {k: metrics[1][k] for k in keep}

@@ -4,8 +4,9 @@
 ``<name>-<key>``, where ``key`` is a hash of the values: the same values (from any recipe or
 sweep job) find the same folder and reuse what it holds, other values get a folder of their
 own. A folder is written under a temporary name and renamed once complete, so an interrupted
-build leaves nothing that looks finished; a lock file makes a second process with the same
-values wait for the first one's build and then reuse it. Each folder holds ``values.json``;
+build leaves nothing that looks finished (a resumable build goes on from it later); a lock
+file makes a second process with the same values wait for the first one's build and then
+reuse it. Each folder holds ``values.json``;
 a folder whose stored values differ from the ones asked for (edited by hand, or written by a
 version whose values hashed the same) is refused, naming the keys that differ.
 
@@ -98,13 +99,20 @@ class ArtefactCache:
         return self.root / f"{name}-{values_key(values)}"
 
     def get_or_build(
-        self, name: str, values: Mapping, build: Callable[[Path], None]
-    ) -> tuple[Path, bool]:
+        self, name: str, values: Mapping, build: Callable[[Path], None], *,
+        resumable: bool = False,
+    ) -> tuple[Path, bool]:  # fmt: skip
         """The folder of ``values``, built by ``build(folder)`` if it does not exist yet.
 
-        ``build`` writes into a fresh temporary folder, which becomes the artefact only when
+        ``build`` writes into a temporary folder, which becomes the artefact only when
         ``build`` returns (with ``values.json`` added). Returns ``(folder, built)``; a folder
         that exists with other stored values raises ``ValueError`` naming the keys.
+
+        ``resumable``: ``build`` can go on from what a build of the same values cut short
+        left in its folder (a kill, the end of a sitting): the newest such folder is handed to
+        it instead of a fresh one, and an interruption (``KeyboardInterrupt``, ``SystemExit``)
+        keeps the folder for the next build. A build that raises an error leaves nothing,
+        either way.
         """
         folder = self.folder(name, values)
         self.root.mkdir(parents=True, exist_ok=True)
@@ -114,16 +122,25 @@ class ArtefactCache:
                 check_values(folder, values)
                 log.info("artefact: reusing %s", folder)
                 return folder, False
-            # builds of this folder that a kill -9 cut short (the lock is ours: none is running)
-            for stale in self.root.glob(f".{folder.name}.partial-*"):
-                shutil.rmtree(stale, ignore_errors=True)
+            # builds of this folder cut short (the lock is ours: none is running), newest first
+            stale = sorted(self.root.glob(f".{folder.name}.partial-*"),
+                           key=lambda path: path.stat().st_mtime, reverse=True)  # fmt: skip
             partial = self.root / f".{folder.name}.partial-{os.getpid()}"
-            partial.mkdir()
+            if resumable and stale:
+                stale.pop(0).rename(partial)
+                log.info("artefact: going on with the build cut short in %s", partial)
+            for path in stale:
+                shutil.rmtree(path, ignore_errors=True)
+            partial.mkdir(exist_ok=True)
             try:
                 build(partial)
                 (partial / VALUES_FILE).write_text(json.dumps(values, indent=2, default=str))
-            except BaseException:  # an interrupted or failed build leaves nothing behind
+            except Exception:  # a failed build leaves nothing behind
                 shutil.rmtree(partial, ignore_errors=True)
+                raise
+            except BaseException:  # interrupted: kept for the next build when resumable
+                if not resumable:
+                    shutil.rmtree(partial, ignore_errors=True)
                 raise
             partial.rename(folder)
             log.info("artefact: built %s", folder)

@@ -34,6 +34,12 @@ optimiser step, per phase: the paper's Fig. 4; the held-out samples are whole sc
 ``loss.png`` when a plot function is given, ``metrics.json`` (sample counts, losses, wall
 times) and ``values.json``.
 
+A build cut short (a kill, the end of a sitting) goes on from its last finished phase the next
+time the same values are asked for: the saved demonstrations and DAgger samples are read back
+instead of collected and the proposer after each finished training phase is loaded instead of
+trained again; every phase draws from its own seeds, so the artefact is the one an
+uninterrupted build writes (tested bit for bit).
+
 Examples:
     >>> values = first_stage_values({"seed": 0, "env": {"controller": "pid",
     ...     "rate_model": "paper"}, "proposer": {"demo_sea_state": "es"}})
@@ -247,6 +253,7 @@ def first_stage_from_config(
             name, values,
             lambda into: build_first_stage(into, values, workers=int(p.get("demo_workers", 1)),
                                            plot_loss=plot_loss),
+            resumable=True,  # a build cut short goes on from its last finished phase
         )  # fmt: skip
     seconds = time.perf_counter() - start
     proposer = _apply_acting(DiffusionProposer.load(folder / "proposer.pt"), p)

@@ -9,6 +9,8 @@ import copy
 import csv
 import json
 import logging
+import os
+import shutil
 import time
 from collections.abc import Callable, Mapping
 from functools import partial
@@ -17,7 +19,11 @@ from pathlib import Path
 import torch
 from tensordict import TensorDictBase
 
-from torchrl_auv.envs.demonstrations import collect_demonstration_batches, save_demonstrations
+from torchrl_auv.envs.demonstrations import (
+    collect_demonstration_batches,
+    load_demonstrations,
+    save_demonstrations,
+)
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import pretrain_proposer
 from torchrl_auv.training.keys import AGENTS, OBSERVATION
@@ -72,6 +78,41 @@ def _append(data: TensorDictBase, more: TensorDictBase) -> TensorDictBase:
     return torch.cat([data, more.select(*data.keys(True, True))])
 
 
+#: the build's record of its finished phases (in the folder while it builds; removed at the end)
+PROGRESS_FILE = "build_progress.json"
+
+
+def _phase_proposer(folder: Path, phase: str) -> Path:
+    return folder / f"proposer_after_{phase}.pt"
+
+
+def _save(proposer: DiffusionProposer, path: Path) -> None:
+    """Save ``proposer`` at ``path`` over what a build cut short may have left there."""
+    path.unlink(missing_ok=True)
+    proposer.save(path)
+
+
+def _record(folder: Path, progress: dict) -> None:
+    """Write the build's progress atomically (a kill leaves the old record or the new one)."""
+    tmp = folder / f"{PROGRESS_FILE}.tmp"
+    tmp.write_text(json.dumps(progress, indent=1))
+    os.replace(tmp, folder / PROGRESS_FILE)
+
+
+def _data(folder: Path, name: str, collect: Callable[[], TensorDictBase],
+          metadata: Mapping) -> tuple[TensorDictBase, bool]:  # fmt: skip
+    """The samples saved under ``folder/name`` by a build cut short (``metadata.json`` is
+    written last: its presence means they are whole), else collected and saved. Returns
+    ``(data, collected)``."""
+    out = folder / name
+    if (out / "metadata.json").exists():  # read back as saved (without the buffer's "index")
+        return load_demonstrations(out)[:].exclude("index").clone(), False
+    shutil.rmtree(out, ignore_errors=True)  # a save cut short
+    data = collect()
+    save_demonstrations(data, out, metadata=dict(metadata))
+    return data, True
+
+
 def build_first_stage(
     folder: str | Path,
     values: Mapping,
@@ -83,7 +124,14 @@ def build_first_stage(
     artefact into ``folder`` (module docstring). ``workers`` processes collect the batches
     of scenes; ``plot_loss(steps, losses, path, heldout_steps=, heldout_losses=, phases=)``
     (e.g. :func:`torchrl_auv.report.plot_pretraining_loss`) draws ``loss.png``. Returns the
-    metrics written to ``metrics.json``."""
+    metrics written to ``metrics.json``.
+
+    A build cut short goes on from its last finished phase when called again on the same
+    folder (:meth:`ArtefactCache.get_or_build` with ``resumable=True`` hands it over): the
+    saved demonstrations and DAgger samples are loaded instead of collected, and the proposer
+    after each training phase is loaded instead of trained, so the artefact is the one an
+    uninterrupted build writes (every phase draws from its own seeds).
+    """
     folder = Path(folder)
     demo, model, train = values["demonstrations"], values["model"], values["pretraining"]
     dagger = values["dagger"]
@@ -93,20 +141,35 @@ def build_first_stage(
         horizon=demo["horizon"], history=demo["history"], sea_state=values["sea_state"],
         controller=values["controller"], rate_model=values["rate_model"],
     )  # fmt: skip
+    progress = {"done": [], "metrics": {}, "phases": [],
+                "curve": {"phase": [], "step": [], "split": [], "loss": []}}  # fmt: skip
+    if (folder / PROGRESS_FILE).exists():
+        progress = json.loads((folder / PROGRESS_FILE).read_text())
+    if progress["done"]:
+        log.info("first stage: going on after %s", ", ".join(progress["done"]))
+    metrics, curve = progress["metrics"], progress["curve"]
+    phases: list[tuple[int, str]] = [tuple(phase) for phase in progress["phases"]]
+
     start = time.perf_counter()
-    data = collect(demo["demo_batches"])
-    metrics = {"samples": len(data), "overridden_samples": int(data["overridden"].sum()),
-               "demonstrations_s": time.perf_counter() - start}  # fmt: skip
-    save_demonstrations(data, folder / "demonstrations", metadata=dict(values))
+    data, collected = _data(folder, "demonstrations", lambda: collect(demo["demo_batches"]),
+                            values)  # fmt: skip
+    if collected:
+        metrics["demonstrations_s"] = time.perf_counter() - start
+    metrics.setdefault("samples", len(data))
+    metrics.setdefault("overridden_samples", int(data["overridden"].sum()))
+    _record(folder, progress)
     obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
     proposer = untrained_proposer(obs_dim, act_dim, history=demo["history"],
                                   horizon=demo["horizon"], model=model)  # fmt: skip
-    curve = {"phase": [], "step": [], "split": [], "loss": []}
-    phases: list[tuple[int, str]] = []
 
     def fit(phase: str, steps: int, lr: float, first: bool) -> float:
         """Train on ``data`` (fitting the state standardisation the first time); add the
-        curves to ``curve`` after the steps so far; return the held-out loss."""
+        curves to ``curve`` after the steps so far; return the held-out loss. A phase that a
+        build cut short had finished is loaded instead (its proposer, curve and metrics)."""
+        nonlocal proposer
+        if phase in progress["done"]:
+            proposer = DiffusionProposer.load(_phase_proposer(folder, phase))
+            return metrics[f"{phase}_heldout_loss"]
         offset = curve["step"][-1] if curve["step"] else 0
         phases.append((offset, phase))
         began = time.perf_counter()
@@ -121,6 +184,7 @@ def build_first_stage(
                 eval_every=max(1, steps // 10),
             )  # fmt: skip
         metrics[f"{phase}_s"] = time.perf_counter() - began
+        metrics[f"{phase}_heldout_loss"] = result.heldout_loss
         for split, steps_, losses in (
             ("train", result.steps, result.losses),
             ("heldout", result.heldout_steps, result.heldout_losses),
@@ -132,27 +196,34 @@ def build_first_stage(
                 curve["loss"].append(value)
         log.info("first stage: %s, %d samples, %d steps in %.0f s, held-out loss %.4f", phase,
                  len(data), steps, metrics[f"{phase}_s"], result.heldout_loss)  # fmt: skip
+        _save(proposer, _phase_proposer(folder, phase))
+        progress["done"].append(phase)
+        progress["phases"] = [list(p) for p in phases]
+        _record(folder, progress)
         return result.heldout_loss
 
-    metrics["pretraining_heldout_loss"] = fit("pretraining", train["pretrain_steps"],
-                                              train["lr"], first=True)  # fmt: skip
+    fit("pretraining", train["pretrain_steps"], train["lr"], first=True)
     proposer.use_ema = train["ema_decay"] is not None
     if dagger["dagger_rounds"]:
-        proposer.save(folder / "proposer_bc.pt")  # before DAgger: behaviour cloning alone
+        _save(proposer, folder / "proposer_bc.pt")  # before DAgger: behaviour cloning alone
     for r in range(1, dagger["dagger_rounds"] + 1):
         actor = copy.deepcopy(proposer)
         actor.configure_sampling(num_inference_steps=dagger["dagger_inference_steps"],
                                  sampler="ddim")  # fmt: skip
         start = time.perf_counter()
         first_batch = demo["demo_batches"] + (r - 1) * dagger["dagger_batches"]
-        visited = collect(dagger["dagger_batches"], first_batch=first_batch,
-                          policy=partial(_dagger_policy, actor))  # fmt: skip
-        metrics[f"dagger{r}_collection_s"] = time.perf_counter() - start
-        metrics[f"dagger{r}_samples"] = len(visited)
-        save_demonstrations(visited, folder / f"dagger{r}", metadata={**values, "round": r})
+        visited, collected = _data(
+            folder, f"dagger{r}",
+            lambda: collect(dagger["dagger_batches"], first_batch=first_batch,  # noqa: B023
+                            policy=partial(_dagger_policy, actor)),  # noqa: B023
+            {**values, "round": r},
+        )  # fmt: skip
+        if collected:
+            metrics[f"dagger{r}_collection_s"] = time.perf_counter() - start
+        metrics.setdefault(f"dagger{r}_samples", len(visited))
+        _record(folder, progress)
         data = _append(data, visited)
-        metrics[f"dagger{r}_heldout_loss"] = fit(f"dagger{r}", dagger["dagger_steps"],
-                                                 dagger["dagger_lr"], first=False)  # fmt: skip
+        fit(f"dagger{r}", dagger["dagger_steps"], dagger["dagger_lr"], first=False)
     proposer.save(folder / "proposer.pt")
     with open(folder / "pretrain_loss.csv", "w", newline="") as handle:
         writer = csv.writer(handle)
@@ -170,4 +241,7 @@ def build_first_stage(
                    heldout_loss=metrics[f"dagger{dagger['dagger_rounds']}_heldout_loss"]
                    if dagger["dagger_rounds"] else metrics["pretraining_heldout_loss"])  # fmt: skip
     (folder / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    for phase, _ in phases:  # the build's own records: the artefact keeps what it always held
+        _phase_proposer(folder, phase).unlink(missing_ok=True)
+    (folder / PROGRESS_FILE).unlink(missing_ok=True)
     return metrics
