@@ -28,19 +28,19 @@ extensions = [
     "sphinx.ext.autosummary",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
-    "sphinx-mathjax-offline",  # MathJax 3 bundled: the pages render math offline,
+    "sphinx-mathjax-offline",  # MathJax 3 bundled: the pages render math offline
     "sphinx.ext.viewcode",
     "myst_parser",
     "example_run",  # docs/_ext: the tutorials run their example while the site builds
 ]
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build", "_example_figures"]
+# _templates/autosummary/module.rst: a package page shows its docstring and submodules, each
+# module documents its own members (its __all__), so a class re-exported by its package is
+# described once
 templates_path = ["_templates"]
 
 autosummary_generate = True
-autosummary_imported_members = False
-# a package page shows its docstring and submodules; each module documents its own members
-# (its __all__), so a class re-exported by its package is described once
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
 napoleon_google_docstring = True

@@ -46,9 +46,7 @@ class ExampleRun(SphinxDirective):
                                  f"{done.stdout}\n{done.stderr}")  # fmt: skip
         command = nodes.literal_block(text=f"$ python {shown}", language="console")
         printed = done.stdout.rstrip().replace(str(figures), ".") or "(no output)"
-        output = nodes.literal_block(text=printed,
-                                     language="text")  # fmt: skip
-        out: list[nodes.Node] = [command, output]
+        out: list[nodes.Node] = [command, nodes.literal_block(text=printed, language="text")]
         if "figure" in self.options:
             name = self.options["figure"]
             if not (figures / name).is_file():
