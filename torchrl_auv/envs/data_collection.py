@@ -17,6 +17,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from torchrl_auv import iout
+from torchrl_auv.envs.device import on_env_device, step_on_cpu
 from torchrl_auv.envs.specs import (
     checked_action,
     checked_batch_size,
@@ -195,7 +196,9 @@ class DataCollectionEnv(EnvBase):
     "es", "ves" or a ``SeaState``); ``controller`` ("s_surface", "pid", "smc");
     ``rate_model`` ("shannon", "paper"); ``seed``; ``max_steps`` (default
     ``episode_decisions`` = 1000); ``flatten_agents`` (single-agent layout);
-    ``cost_weights``; ``termination_cost`` (default ``None``: derived as above);
+    ``cost_weights``; ``termination_cost`` (default ``None``: derived as above); ``device``
+    (where its outputs and the carried state live; the simulation runs on the CPU,
+    :mod:`~torchrl_auv.envs.device`);
     ``exit_margin_m``; ``station_keeping``; ``compile_physics`` (run the physics step
     through ``torch.compile``: one compilation per batch shape, then faster; TorchRL's own
     ``compile=`` env argument compiles the whole step instead); any other
@@ -424,7 +427,7 @@ class DataCollectionEnv(EnvBase):
         return state
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
-        return self._initial_state(self.batch_size)
+        return on_env_device(self, self._initial_state(self.batch_size))
 
     # -- helpers -------------------------------------------------------------------------
     @staticmethod
@@ -526,6 +529,9 @@ class DataCollectionEnv(EnvBase):
         return torch.where(hovering[..., None], keeper, agent)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        return step_on_cpu(self, tensordict, self._simulate_step)  # envs.device
+
+    def _simulate_step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g, cfg = self.rng, self.config
         state = tensordict.select(*self.state_spec.keys(True, True), strict=True)
         td = state[SIM_KEY]

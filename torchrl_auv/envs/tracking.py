@@ -16,6 +16,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from torchrl_auv.control import wrap_angle
+from torchrl_auv.envs.device import on_env_device, step_on_cpu
 from torchrl_auv.envs.specs import (
     checked_action,
     checked_batch_size,
@@ -99,7 +100,9 @@ class AUVTrackingEnv(EnvBase):
     **Arguments.** ``batch_size``; ``sea_state`` ("ideal", "es", "ves" or a ``SeaState``);
     ``controller`` ("s_surface", "pid", "smc"); ``seed``; ``max_steps`` (decisions, default
     300); ``segment_seconds`` (default 60); ``compile_physics`` (the 20 Hz inner loop through
-    ``torch.compile``, see :class:`~torchrl_auv.envs.vehicles.VehicleStack`).
+    ``torch.compile``, see :class:`~torchrl_auv.envs.vehicles.VehicleStack`); ``device``
+    (where its outputs and the carried state live; the simulation runs on the CPU,
+    :mod:`~torchrl_auv.envs.device`).
 
     **Version history.** v0: first release.
 
@@ -213,7 +216,7 @@ class AUVTrackingEnv(EnvBase):
         return td
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
-        return self._initial_state(self.batch_size)
+        return on_env_device(self, self._initial_state(self.batch_size))
 
     # -- step ----------------------------------------------------------------------------
     def _reference_now(self, td: TensorDictBase) -> torch.Tensor:
@@ -242,6 +245,9 @@ class AUVTrackingEnv(EnvBase):
         return TensorDict(tracking_errors(stats), batch_size=stats.batch_size)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        return step_on_cpu(self, tensordict, self._simulate_step)  # envs.device
+
+    def _simulate_step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g = self.rng
         td = tensordict.select(*self.state_spec.keys(True, True), strict=True).clone(False)
         action = checked_action(tensordict["action"], (*self.batch_size, 3), "action")

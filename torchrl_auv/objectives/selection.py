@@ -29,11 +29,11 @@ SELECTION_MODES = ("q", "lyapunov")
 _FORM_NAMES, _PRIOR_NAMES = sorted(FORMS), sorted(PRIORS)
 
 
-def _encode(spec: LyapunovSpec) -> torch.Tensor:
-    """``[form index, prior index (-1: none), alpha, prior weight]`` (float64)."""
+def _encode(spec: LyapunovSpec, device: torch.device | str | None = None) -> torch.Tensor:
+    """``[form index, prior index (-1: none), alpha, prior weight]`` (float64, on ``device``)."""
     prior = -1 if spec.prior is None else _PRIOR_NAMES.index(spec.prior)
     return torch.tensor([_FORM_NAMES.index(spec.form), prior, spec.alpha, spec.prior_weight],
-                        dtype=torch.float64)  # fmt: skip
+                        dtype=torch.float64, device=device)  # fmt: skip
 
 
 def _decode(code: torch.Tensor, like: LyapunovSpec) -> LyapunovSpec:
@@ -147,7 +147,7 @@ class CandidateSelector(TensorDictModuleBase):
             >>> b.spec.form, b.spec.alpha
             ('squared', 0.25)
         """
-        if not torch.equal(self.spec_code, _encode(self._spec)):
+        if not torch.equal(self.spec_code, _encode(self._spec, self.spec_code.device)):
             self._spec = _decode(self.spec_code, self._spec)
         return self._spec
 
@@ -205,15 +205,18 @@ class CandidateSelector(TensorDictModuleBase):
         scores = self.scores(observation, first)
         ranking = scores.argsort(-1, descending=True)
         index = ranking[..., 0]
+        # draws on the generator's device (a CPU generator for a selector on a GPU)
+        draw_on = scores.device if self.generator is None else self.generator.device
         if self.exploration == "softmax":
             probs = torch.softmax(scores / self.temperature, -1)
-            flat = probs.reshape(-1, probs.shape[-1])
+            flat = probs.reshape(-1, probs.shape[-1]).to(draw_on)
             index = torch.multinomial(flat, 1, generator=self.generator).reshape(index.shape)
+            index = index.to(scores.device)
         elif self.exploration == "epsilon":
             shape, n = index.shape, scores.shape[-1]
-            explore = torch.rand(shape, generator=self.generator) < self.epsilon
-            random = torch.randint(0, n, shape, generator=self.generator)
-            index = torch.where(explore, random, index)
+            explore = torch.rand(shape, generator=self.generator, device=draw_on) < self.epsilon
+            random = torch.randint(0, n, shape, generator=self.generator, device=draw_on)
+            index = torch.where(explore.to(scores.device), random.to(scores.device), index)
         chosen = torch.gather(first, -2, index[..., None, None].expand(*index.shape, 1,
                                                                       first.shape[-1]))  # fmt: skip
         tensordict.set(self.action_key, chosen.squeeze(-2))

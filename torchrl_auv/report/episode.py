@@ -44,6 +44,7 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
         nxt = nxt["sim"]
     if nxt.batch_dims == 2:
         nxt = nxt[index]
+    nxt = nxt.cpu()  # an env on a GPU (device=cuda) rolls out there; matplotlib reads numpy
     eta = nxt["truth", "eta"].detach()
     estimate = nxt["kf", "mean"].detach()
     setpoint = nxt["setpoint"].detach()

@@ -110,12 +110,14 @@ def env_from_config(cfg: Mapping):
 
 def held_out_env(cfg: Mapping, num_envs: int, steps: int) -> Callable:
     """``(sea_state, seed) -> env`` for :func:`~torchrl_auv.training.evaluate`: ``num_envs``
-    scenes of ``steps`` decisions with the run's controller, rate model, history and
-    ``env.compile_physics`` (the same numbers as eager, about 3x faster once compiled); a
-    picklable ``functools.partial``, for evaluation workers."""
+    scenes of ``steps`` decisions with the run's controller, rate model, history,
+    ``env.compile_physics`` (the same numbers as eager, about 3x faster once compiled) and
+    ``cfg.device`` (where the run's policies live; ``cpu`` when absent); a picklable
+    ``functools.partial``, for evaluation workers."""
     env = cfg["env"]
     return partial(_held_out_scene, history=env_history(cfg), num_envs=num_envs,
                    max_steps=steps, controller=env["controller"],
+                   device=cfg.get("device", "cpu"),
                    rate_model=env["rate_model"],
                    compile_physics=bool(env.get("compile_physics", False)))  # fmt: skip
 

@@ -46,7 +46,7 @@ def exit_policy(env: DataCollectionEnv) -> Callable[[TensorDictBase], TensorDict
 
     def act(td: TensorDictBase) -> TensorDictBase:
         shape = (*td.batch_size, env.num_auvs, 3)
-        action = torch.zeros(shape)
+        action = torch.zeros(shape, device=env.device)
         action[..., 2] = 1.0
         td.set(env.agent_action_key, action.flatten(-2) if env.flatten_agents else action)
         return td
@@ -85,6 +85,7 @@ def episode_stats(
     ``kf_error_p95`` is the 95th percentile over every AUV-decision. ``callback(env, td)`` is
     called after every decision (``EnvBase.rollout``'s), e.g. to advance a progress bar."""
     rollout = env.rollout(steps, policy, break_when_any_done=False, callback=callback)
+    rollout = rollout.cpu()  # an env on a GPU (device=cuda): the statistics on the CPU
     first, mask = _first_episode(rollout)
     scenes = torch.arange(rollout.batch_size[0])
     at_end = rollout["next"][scenes, first]

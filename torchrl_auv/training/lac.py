@@ -69,7 +69,8 @@ def make_lac_loss(
     ``("agents", "cost")`` and the actor minimises it through L alone; ``"stability"``: the
     Lyapunov critic learns ``("agents", "stability_cost")`` (0 in service) and carries the
     constraint, while a task Q critic (:func:`~torchrl_auv.training.make_q_critic` with
-    ``hidden``) learns ``("agents", "cost")`` and gives the actor the task."""
+    ``hidden``) learns ``("agents", "cost")`` and gives the actor the task. The loss (the
+    task critic and the dual variables too) is on the actor's device."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
     qvalue = make_q_critic(env, hidden) if cost == "stability" else None
@@ -84,7 +85,7 @@ def make_lac_loss(
                   terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW, qvalue=Q_VALUE,
                   observation=OBSERVATION)  # fmt: skip
     loss.make_value_estimator(gamma=gamma)
-    return loss
+    return loss.to(next(actor.parameters()).device)
 
 
 def lac_optimisers(
