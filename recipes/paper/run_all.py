@@ -8,6 +8,10 @@
    ``<run_root>/logs/``). A job whose ``eval.csv`` exists is finished and skipped; one with
    checkpoints is resumed from its newest (``resume=``); a failed job is named at the end and
    the command exits non-zero after writing what the others allow.
+   With ``store=DIR`` (``results/paper`` for the paper budget) the finished jobs' outputs
+   that the report reads are copied into ``DIR`` as each job finishes and back into the run
+   folder when the command starts (``torchrl_auv.report.paper.store``): commit ``DIR`` after
+   a sitting, and the next sitting, on this machine or another, skips those jobs.
 2. The report (``torchrl_auv.report.paper.write_report``): per experiment, under
    ``<run_root>/report/<experiment>/``, PNG figures, a Markdown table, the same as CSV and a
    JSON of every number, each stating the budget and seeds.
@@ -26,7 +30,7 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from torchrl_auv.report.paper import grid, write_report
+from torchrl_auv.report.paper import grid, store, write_report
 
 HERE = Path(__file__).resolve().parent
 TRAIN = HERE.parent / "train.py"
@@ -70,6 +74,37 @@ def run_job(job: grid.Job, cfg: DictConfig, root: Path) -> tuple[str, str, float
     return job.name, "resumed and finished" if state == "stopped" else "finished", seconds
 
 
+def sync_store(root: Path, stored: Path, jobs: list[grid.Job]) -> None:
+    """Before any work: the jobs finished under ``root`` and not yet in the store ``stored``
+    go into it (a sitting cut short on this machine), then the stored ones come back."""
+    saved = store.save_finished(root, stored, jobs)
+    restored = store.restore_finished(stored, root, jobs)
+    log.info("store %s: %d files saved, %d restored", stored, len(saved), len(restored))
+
+
+def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | None) -> list[str]:
+    """Every job (:func:`run_job`), ``cfg.parallel`` at a time, the proposer-alone jobs first
+    (they build the first stages the others reuse); with a ``stored`` results store, each job
+    is stored as it finishes. Returns the names of the jobs that failed."""
+    log.info("%d jobs (%s budget) under %s, %d at a time", len(jobs), cfg.budget, root,
+             cfg.parallel)  # fmt: skip
+    start, failed = time.perf_counter(), []
+    builders = [job for job in jobs if job.framework == "diffusion"]
+    others = [job for job in jobs if job.framework != "diffusion"]
+    with ThreadPoolExecutor(max_workers=int(cfg.parallel)) as pool:
+        for batch in (builders, others):
+            for job, (name, state, seconds) in zip(
+                batch, pool.map(lambda j: run_job(j, cfg, root), batch), strict=True
+            ):
+                log.info("%-58s %s (%.0f s)", name, state, seconds)
+                if state.startswith("FAILED"):
+                    failed.append(name)
+                elif stored is not None:
+                    store.save_finished(root, stored, [job])
+    log.info("jobs done in %.1f min", (time.perf_counter() - start) / 60)
+    return failed
+
+
 @hydra.main(config_path=".", config_name="run_all", version_base="1.3")
 def main(cfg: DictConfig) -> None:
     if cfg.budget not in grid.BUDGETS:
@@ -81,21 +116,10 @@ def main(cfg: DictConfig) -> None:
     experiments = list(cfg.experiments)
     root = Path(cfg.run_root).resolve()
     jobs = grid.grid([e for e in experiments if e in grid.EXPERIMENTS], seeds)
-    failed = []
-    if cfg.jobs:
-        log.info("%d jobs (%s budget, seeds %s) under %s, %d at a time", len(jobs), cfg.budget,
-                 seeds, root, cfg.parallel)  # fmt: skip
-        start = time.perf_counter()
-        # the proposer-alone jobs first: they build the first stages the others reuse
-        builders = [job for job in jobs if job.framework == "diffusion"]
-        others = [job for job in jobs if job.framework != "diffusion"]
-        with ThreadPoolExecutor(max_workers=int(cfg.parallel)) as pool:
-            for batch in (builders, others):
-                for name, state, seconds in pool.map(lambda j: run_job(j, cfg, root), batch):
-                    log.info("%-58s %s (%.0f s)", name, state, seconds)
-                    if state.startswith("FAILED"):
-                        failed.append(name)
-        log.info("jobs done in %.1f min", (time.perf_counter() - start) / 60)
+    stored = Path(cfg.store).resolve() if cfg.get("store") else None
+    if stored is not None:
+        sync_store(root, stored, jobs)
+    failed = run_jobs(jobs, cfg, root, stored) if cfg.jobs else []
     if cfg.report:
         written = write_report(root, experiments, seeds=seeds, budget=cfg.budget,
                                frames=cfg.frames, command=" ".join(sys.argv),

@@ -50,6 +50,7 @@ args = dict(a.split("=", 1) for a in sys.argv[1:])
 run = pathlib.Path(args.get("resume") or args["run_dir"])
 run.mkdir(parents=True, exist_ok=True)
 (run / "argv.txt").write_text(" ".join(sys.argv[1:]))
+(run / "train_curve.csv").write_text("frames,cost_mean\\n100,1.0\\n")
 if args["seed"] == "13":
     sys.exit(3)
 (run / "eval.csv").write_text("sea_state,policy,ssn\\nves,sac,1.0\\n")
@@ -77,6 +78,33 @@ def test_finished_jobs_are_skipped_stopped_ones_resumed_failed_ones_named(tmp_pa
     _, state, _ = run_all.run_job(failing, cfg, root)
     assert state.startswith("FAILED (exit 3") and str(root / "logs") in state
     assert "$ " in (root / "logs" / "sac__ves__pid__seed13.log").read_text()
+
+
+def test_a_store_carries_finished_jobs_to_another_machine(tmp_path, monkeypatch):
+    """Sitting 1 stores each finished job (not the failed one, nor checkpoints); the command
+    on a fresh run folder (another machine) gets them back, and its jobs skip them."""
+    run_all = _load_run_all()
+    fake = tmp_path / "fake_train.py"
+    fake.write_text(FAKE_TRAIN)
+    monkeypatch.setattr(run_all, "TRAIN", fake)
+    cfg = OmegaConf.create({"budget": "quick", "frames": None, "parallel": 2})
+    done, later = grid(["fig7"], seeds=(0,))[:2]
+    failing = Job("sac", "es", "pid", 13)
+    store, first, second = tmp_path / "store", tmp_path / "machine1", tmp_path / "machine2"
+    (first / "jobs" / done.name / "checkpoints" / "checkpoint-100").mkdir(parents=True)
+    assert run_all.run_jobs([done, failing], cfg, first, store) == [failing.name]
+    run_all.sync_store(first, store, [done, failing])  # the next sitting on this machine
+    stored = sorted(p.relative_to(store).as_posix() for p in store.rglob("*") if p.is_file())
+    assert stored == [f"jobs/{done.name}/eval.csv", f"jobs/{done.name}/train_curve.csv"]
+    command = [sys.executable, str(RECIPES / "paper" / "run_all.py"), "budget=quick",
+               "seeds=[0]", "experiments=[fig7]", "jobs=false", "report=false",
+               f"run_root={second}", f"store={store}"]  # fmt: skip
+    subprocess.run(command, check=True, cwd=tmp_path, timeout=120)
+    assert run_all.job_state(second / "jobs" / done.name) == "done"
+    assert run_all.job_state(second / "jobs" / later.name) == "new"
+    assert run_all.run_jobs([done, later], cfg, second, store) == []
+    assert not (second / "jobs" / done.name / "argv.txt").exists()  # skipped, not run again
+    assert (store / "jobs" / later.name / "eval.csv").exists()
 
 
 @pytest.mark.slow
