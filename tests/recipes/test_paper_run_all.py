@@ -16,7 +16,9 @@ import pytest
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
+from torchrl_auv.report.paper.figures import fig4
 from torchrl_auv.report.paper.grid import EXPERIMENTS, Job, grid
+from torchrl_auv.report.paper.output import first_stage_folder
 from torchrl_auv.training import check_choices, check_config
 
 REPO = Path(__file__).resolve().parents[2]
@@ -92,16 +94,43 @@ def test_a_store_carries_finished_jobs_to_another_machine(tmp_path, monkeypatch)
     failing = Job("sac", "es", "pid", 13)
     store, first, second = tmp_path / "store", tmp_path / "machine1", tmp_path / "machine2"
     (first / "jobs" / done.name / "checkpoints" / "checkpoint-100").mkdir(parents=True)
+    stage = first / "first_stage" / "ideal-s_surface-shannon-seed0-abc"  # built: records kept
+    for name, text in (
+        ("proposer.pt", "weights"),
+        ("metrics.json", "{}"),
+        ("values.json", "{}"),
+        ("pretrain_loss.csv", "step,split,loss\n10,train,0.5\n10,heldout,0.7\n"),
+    ):
+        (stage / name).parent.mkdir(parents=True, exist_ok=True)
+        (stage / name).write_text(text)
+    partial = first / "first_stage" / ".ideal-s_surface-shannon-seed1-abc.partial-7"
+    unfinished = first / "first_stage" / "es-s_surface-shannon-seed0-x"  # no values.json
+    for folder, names in ((partial, ("pretrain_loss.csv", "values.json")),
+                          (unfinished, ("pretrain_loss.csv",))):  # fmt: skip
+        folder.mkdir()
+        for name in names:
+            (folder / name).write_text("{}")
     assert run_all.run_jobs([done, failing], cfg, first, store) == [failing.name]
     run_all.sync_store(first, store, [done, failing])  # the next sitting on this machine
     stored = sorted(p.relative_to(store).as_posix() for p in store.rglob("*") if p.is_file())
-    assert stored == [f"jobs/{done.name}/eval.csv", f"jobs/{done.name}/train_curve.csv"]
+    assert stored == [f"first_stage/{stage.name}/{name}"
+                      for name in ("metrics.json", "pretrain_loss.csv", "values.json")] + [
+        f"jobs/{done.name}/eval.csv", f"jobs/{done.name}/train_curve.csv"]  # fmt: skip
     command = [sys.executable, str(RECIPES / "paper" / "run_all.py"), "budget=quick",
                "seeds=[0]", "experiments=[fig7]", "jobs=false", "report=false",
                f"run_root={second}", f"store={store}"]  # fmt: skip
     subprocess.run(command, check=True, cwd=tmp_path, timeout=120)
     assert run_all.job_state(second / "jobs" / done.name) == "done"
     assert run_all.job_state(second / "jobs" / later.name) == "new"
+    # the first stage's record is back for Fig. 4, not as an artefact a job would reuse
+    assert not (second / "first_stage").exists()
+    assert first_stage_folder(second, "ideal", 0) is None
+    record = first_stage_folder(second, "ideal", 0, records=True)
+    assert (record / "pretrain_loss.csv").read_text() == (stage / "pretrain_loss.csv").read_text()
+    (tmp_path / "fig4").mkdir()
+    fig4(second, tmp_path / "fig4", [0], "header")
+    rows = json.loads((tmp_path / "fig4" / "fig4.json").read_text())["rows"]
+    assert rows[0]["sea_state"] == "ideal" and rows[0]["heldout_loss"] == 0.7
     assert run_all.run_jobs([done, later], cfg, second, store) == []
     assert not (second / "jobs" / done.name / "argv.txt").exists()  # skipped, not run again
     assert (store / "jobs" / later.name / "eval.csv").exists()

@@ -58,7 +58,7 @@ def fig4(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
     for ax, sea in zip(axes[0], SEAS, strict=True):
         finals = []
         for seed in seeds:
-            folder = first_stage_folder(root, sea, seed)
+            folder = first_stage_folder(root, sea, seed, records=True)
             if folder is None:
                 continue
             curve = {"train": ([], []), "heldout": ([], [])}

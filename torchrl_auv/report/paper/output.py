@@ -24,16 +24,23 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from torchrl_auv.report.paper.grid import Job
+from torchrl_auv.report.paper.store import RECORDS
 from torchrl_auv.report.sweeps import parse_number
 
 __all__ = ["first_stage_folder", "job_rows", "mean_std", "read_eval", "write_table"]
 
 
-def first_stage_folder(root: Path, sea: str, seed: int) -> Path | None:
+def first_stage_folder(root: Path, sea: str, seed: int, *, records: bool = False) -> Path | None:
     """The built first stage of (``sea``, S-Surface, ``seed``) under ``root/first_stage``
-    (the grid's runs share it), ``None`` when none is built."""
-    found = sorted((Path(root) / "first_stage").glob(f"{sea}-s_surface-*-seed{seed}-*"))
+    (the grid's runs share it), ``None`` when none is built. ``records``: else its record
+    restored from a results store (``root/first_stage_records``, its training losses
+    without the proposer, :mod:`~torchrl_auv.report.paper.store`)."""
+    pattern = f"{sea}-s_surface-*-seed{seed}-*"
+    found = sorted((Path(root) / "first_stage").glob(pattern))
     found = [f for f in found if (f / "proposer.pt").exists()]
+    if not found and records:
+        found = sorted((Path(root) / RECORDS).glob(pattern))
+        found = [f for f in found if (f / "pretrain_loss.csv").exists()]
     return found[-1] if found else None
 
 

@@ -8,7 +8,10 @@ them into ``DIR`` (``results/paper`` in the repository: commit it after a sittin
 finishes, and back into the run folder at the start of the next sitting, where a job whose
 ``eval.csv`` is back is finished and skipped. A job that had not finished starts again on a
 new machine (its checkpoints are not stored); a first stage a job needs is rebuilt (the same
-artefact: its build is seeded).
+artefact: its build is seeded). Of each built first stage the store keeps the record Fig. 4
+reads (:data:`FIRST_STAGE_FILES`, under ``DIR/first_stage/<artefact>/``), restored into
+``<run folder>/first_stage_records/`` (not ``first_stage/``: an artefact folder without its
+proposer would be taken for a built one).
 
 Examples:
     >>> import tempfile
@@ -34,7 +37,14 @@ from pathlib import Path
 
 from torchrl_auv.report.paper.grid import Job
 
-__all__ = ["FINISHED_MARK", "STORED_FILES", "restore_finished", "save_finished"]
+__all__ = [
+    "FINISHED_MARK",
+    "FIRST_STAGE_FILES",
+    "RECORDS",
+    "STORED_FILES",
+    "restore_finished",
+    "save_finished",
+]
 
 #: The file whose presence makes a job finished (``run_all.job_state``).
 FINISHED_MARK = "eval.csv"
@@ -54,6 +64,39 @@ STORED_FILES = (
 )
 
 
+#: What the store keeps of a built first stage (its proposer stays on the machine).
+FIRST_STAGE_FILES = ("pretrain_loss.csv", "metrics.json", "values.json")
+
+#: Where the restored first-stage records go under a run folder.
+RECORDS = "first_stage_records"
+
+
+def _copy_files(src: Path, dst: Path, names) -> list[Path]:
+    written = []
+    for name in names:
+        if (src / name).is_file():
+            (dst / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src / name, dst / name)
+            written.append(dst / name)
+    return written
+
+
+def _copy_first_stages(source: Path, target: Path) -> list[Path]:
+    """The records (:data:`FIRST_STAGE_FILES`) of every first stage under ``source`` that
+    ``target`` lacks; ``values.json`` marks a complete one and is copied last."""
+    written = []
+    if not source.is_dir():
+        return written
+    for folder in sorted(source.iterdir()):
+        if folder.name.startswith(".") or not (folder / "values.json").is_file():
+            continue
+        if (target / folder.name / "values.json").exists():
+            continue
+        names = sorted(FIRST_STAGE_FILES, key=lambda n: n == "values.json")
+        written += _copy_files(folder, target / folder.name, names)
+    return written
+
+
 def _copy_finished(source: Path, target: Path, jobs: Iterable[Job]) -> list[Path]:
     """Copy :data:`STORED_FILES` of the jobs finished under ``source`` and not under
     ``target``; returns the written paths."""
@@ -62,11 +105,8 @@ def _copy_finished(source: Path, target: Path, jobs: Iterable[Job]) -> list[Path
         src, dst = source / "jobs" / job.name, target / "jobs" / job.name
         if not (src / FINISHED_MARK).exists() or (dst / FINISHED_MARK).exists():
             continue
-        for name in sorted(STORED_FILES, key=lambda n: n == FINISHED_MARK):  # the mark last
-            if (src / name).is_file():
-                (dst / name).parent.mkdir(parents=True, exist_ok=True)
-                shutil.copy2(src / name, dst / name)
-                written.append(dst / name)
+        names = sorted(STORED_FILES, key=lambda n: n == FINISHED_MARK)  # the mark last
+        written += _copy_files(src, dst, names)
     return written
 
 
@@ -74,11 +114,17 @@ def save_finished(root: str | Path, store: str | Path, jobs: Iterable[Job]) -> l
     """Copy the outputs (:data:`STORED_FILES`) of ``jobs`` finished under the run folder
     ``root`` into ``store`` (``store/jobs/<job.name>/``), each job once: a job already in the
     store is left as it is. Its ``eval.csv`` is copied last, so a copy cut short is not taken
-    for a finished job. Returns the written paths."""
-    return _copy_finished(Path(root), Path(store), jobs)
+    for a finished job. The records of the first stages built under ``root/first_stage`` go
+    to ``store/first_stage``. Returns the written paths."""
+    root, store = Path(root), Path(store)
+    records = _copy_first_stages(root / "first_stage", store / "first_stage")
+    return _copy_finished(root, store, jobs) + records
 
 
 def restore_finished(store: str | Path, root: str | Path, jobs: Iterable[Job]) -> list[Path]:
     """Copy the stored outputs of ``jobs`` back under ``root`` (:func:`save_finished` in
-    reverse) where ``root`` does not hold that job finished; returns the written paths."""
-    return _copy_finished(Path(store), Path(root), jobs)
+    reverse) where ``root`` does not hold that job finished, and the first-stage records into
+    ``root/first_stage_records`` (:data:`RECORDS`); returns the written paths."""
+    store, root = Path(store), Path(root)
+    records = _copy_first_stages(store / "first_stage", root / RECORDS)
+    return _copy_finished(store, root, jobs) + records
