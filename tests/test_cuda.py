@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 import torch
+from tensordict import TensorDict
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from torchrl_auv.modules import DiffusionProposer
@@ -58,8 +59,6 @@ def test_the_env_on_cuda_sees_the_cpu_scenes_and_steps_alike():
 
 def test_the_proposer_proposes_on_cuda():
     proposer = DiffusionProposer(6, 3, num_candidates=5, horizon=8, num_inference_steps=4).to(CUDA)
-    from tensordict import TensorDict
-
     out = proposer(TensorDict({"observation": torch.zeros(4, 6, device=CUDA)}, batch_size=[4]))
     candidates = out["proposer", "candidates"]
     assert candidates.is_cuda and candidates.shape == (4, 5, 8, 3)

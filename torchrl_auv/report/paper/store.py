@@ -63,7 +63,6 @@ STORED_FILES = (
     ".hydra/overrides.yaml",
 )
 
-
 #: What the store keeps of a built first stage (its proposer stays on the machine).
 FIRST_STAGE_FILES = ("pretrain_loss.csv", "metrics.json", "values.json")
 
@@ -71,9 +70,14 @@ FIRST_STAGE_FILES = ("pretrain_loss.csv", "metrics.json", "values.json")
 RECORDS = "first_stage_records"
 
 
-def _copy_files(src: Path, dst: Path, names) -> list[Path]:
+def _copy_marked(src: Path, dst: Path, names: tuple[str, ...], mark: str) -> list[Path]:
+    """Copy ``names`` (those that exist) from ``src`` to ``dst`` when ``src`` holds ``mark``
+    and ``dst`` does not; ``mark`` last, so a copy cut short is not taken for a whole one.
+    Returns the written paths."""
+    if not (src / mark).is_file() or (dst / mark).exists():
+        return []
     written = []
-    for name in names:
+    for name in sorted(names, key=lambda n: n == mark):
         if (src / name).is_file():
             (dst / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src / name, dst / name)
@@ -82,32 +86,22 @@ def _copy_files(src: Path, dst: Path, names) -> list[Path]:
 
 
 def _copy_first_stages(source: Path, target: Path) -> list[Path]:
-    """The records (:data:`FIRST_STAGE_FILES`) of every first stage under ``source`` that
-    ``target`` lacks; ``values.json`` marks a complete one and is copied last."""
-    written = []
+    """The records (:data:`FIRST_STAGE_FILES`) of every complete first stage under ``source``
+    (``values.json`` written; not a build cut short, ``.<name>.partial-*``) that ``target``
+    lacks."""
     if not source.is_dir():
-        return written
-    for folder in sorted(source.iterdir()):
-        if folder.name.startswith(".") or not (folder / "values.json").is_file():
-            continue
-        if (target / folder.name / "values.json").exists():
-            continue
-        names = sorted(FIRST_STAGE_FILES, key=lambda n: n == "values.json")
-        written += _copy_files(folder, target / folder.name, names)
-    return written
+        return []
+    return [path for folder in sorted(source.iterdir()) if not folder.name.startswith(".")
+            for path in _copy_marked(folder, target / folder.name, FIRST_STAGE_FILES,
+                                     "values.json")]  # fmt: skip
 
 
 def _copy_finished(source: Path, target: Path, jobs: Iterable[Job]) -> list[Path]:
     """Copy :data:`STORED_FILES` of the jobs finished under ``source`` and not under
     ``target``; returns the written paths."""
-    written = []
-    for job in jobs:
-        src, dst = source / "jobs" / job.name, target / "jobs" / job.name
-        if not (src / FINISHED_MARK).exists() or (dst / FINISHED_MARK).exists():
-            continue
-        names = sorted(STORED_FILES, key=lambda n: n == FINISHED_MARK)  # the mark last
-        written += _copy_files(src, dst, names)
-    return written
+    return [path for job in jobs
+            for path in _copy_marked(source / "jobs" / job.name, target / "jobs" / job.name,
+                                     STORED_FILES, FINISHED_MARK)]  # fmt: skip
 
 
 def save_finished(root: str | Path, store: str | Path, jobs: Iterable[Job]) -> list[Path]:
