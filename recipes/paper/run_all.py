@@ -5,9 +5,11 @@
 
 1. The jobs (``torchrl_auv.report.paper.grid``): the union of the experiments' training runs,
    each once, ``parallel`` at a time, each ``recipes/train.py`` in its own process (its log in
-   ``<run_root>/logs/``). A job whose ``eval.csv`` exists is finished and skipped; one with
-   checkpoints is resumed from its newest (``resume=``); a failed job is named at the end and
-   the command exits non-zero after writing what the others allow.
+   ``<run_root>/logs/``), grouped by first stage (its builder, then the jobs that reuse it;
+   a job waits for its first stage, the other core does not). A job whose ``eval.csv``
+   exists is finished and skipped; one with checkpoints is resumed from its newest
+   (``resume=``); a failed job is named at the end and the command exits non-zero after
+   writing what the others allow.
    With ``store=DIR`` (``results/paper`` for the paper budget) the finished jobs' outputs
    that the report reads are copied into ``DIR`` as each job finishes and back into the run
    folder when the command starts (``torchrl_auv.report.paper.store``): commit ``DIR`` after
@@ -24,7 +26,7 @@ import os
 import subprocess
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 
 import hydra
@@ -83,19 +85,34 @@ def sync_store(root: Path, stored: Path, jobs: list[grid.Job]) -> None:
 
 
 def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | None) -> list[str]:
-    """Every job (:func:`run_job`), ``cfg.parallel`` at a time, the proposer-alone jobs first
-    (they build the first stages the others reuse); with a ``stored`` results store, each job
-    is stored as it finishes. Returns the names of the jobs that failed."""
+    """Every job (:func:`run_job`) in the grid's order, ``cfg.parallel`` at a time: a free
+    core takes the first job whose first stage's builder (:func:`grid.first_stage_job`, when
+    it is among ``jobs``) has ended, so the other core goes on with ready jobs while a first
+    stage builds. With a ``stored`` results store, each job is stored as it finishes. Returns
+    the names of the jobs that failed."""
     log.info("%d jobs (%s budget) under %s, %d at a time", len(jobs), cfg.budget, root,
              cfg.parallel)  # fmt: skip
     start, failed = time.perf_counter(), []
-    builders = [job for job in jobs if job.framework == "diffusion"]
-    others = [job for job in jobs if job.framework != "diffusion"]
+    waiting, running = list(jobs), {}
+    unended = {job.name for job in jobs}
+
+    def ready(job: grid.Job) -> bool:
+        builder = grid.first_stage_job(job)
+        return builder is None or builder.name not in unended
+
     with ThreadPoolExecutor(max_workers=int(cfg.parallel)) as pool:
-        for batch in (builders, others):
-            for job, (name, state, seconds) in zip(
-                batch, pool.map(lambda j: run_job(j, cfg, root), batch), strict=True
-            ):
+        while waiting or running:
+            while len(running) < int(cfg.parallel):
+                job = next((job for job in waiting if ready(job)), None)
+                if job is None:
+                    break
+                waiting.remove(job)
+                running[pool.submit(run_job, job, cfg, root)] = job
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                job = running.pop(future)
+                name, state, seconds = future.result()
+                unended.discard(name)
                 log.info("%-58s %s (%.0f s)", name, state, seconds)
                 if state.startswith("FAILED"):
                     failed.append(name)

@@ -10,6 +10,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -80,6 +81,30 @@ def test_finished_jobs_are_skipped_stopped_ones_resumed_failed_ones_named(tmp_pa
     _, state, _ = run_all.run_job(failing, cfg, root)
     assert state.startswith("FAILED (exit 3") and str(root / "logs") in state
     assert "$ " in (root / "logs" / "sac__ves__pid__seed13.log").read_text()
+
+
+def test_a_job_waits_for_its_first_stage_while_the_other_core_goes_on(tmp_path, monkeypatch):
+    """The LAC job is next in order but its first stage is building: the second core takes
+    the SAC job instead, and the LAC job starts only once its builder has ended."""
+    run_all = _load_run_all()
+    builder, user, sac = (Job("diffusion", "ves", "pid", 0), Job("diffusion_lac", "ves", "pid", 0),
+                          Job("sac", "ves", "pid", 0))  # fmt: skip
+    events, sac_started = [], threading.Event()
+
+    def fake_run_job(job, cfg, root):
+        events.append(("start", job.name))
+        if job == sac:
+            sac_started.set()
+        if job == builder:
+            assert sac_started.wait(timeout=20), "the other core sat idle behind the build"
+        events.append(("end", job.name))
+        return job.name, "finished", 0.0
+
+    monkeypatch.setattr(run_all, "run_job", fake_run_job)
+    cfg = OmegaConf.create({"budget": "quick", "frames": None, "parallel": 2})
+    assert run_all.run_jobs([builder, user, sac], cfg, tmp_path, None) == []
+    assert events.index(("start", user.name)) > events.index(("end", builder.name))
+    assert {name for kind, name in events if kind == "end"} == {builder.name, user.name, sac.name}
 
 
 def test_a_store_carries_finished_jobs_to_another_machine(tmp_path, monkeypatch):

@@ -5,10 +5,16 @@ from __future__ import annotations
 
 import pytest
 
-from torchrl_auv.report.paper.grid import EXPERIMENTS, Job, experiment_jobs, grid
+from torchrl_auv.report.paper.grid import (
+    EXPERIMENTS,
+    Job,
+    experiment_jobs,
+    first_stage_job,
+    grid,
+)
 
 
-def test_shared_jobs_run_once_and_every_first_stage_is_built_first():
+def test_shared_jobs_run_once_and_the_jobs_of_a_first_stage_follow_its_builder():
     jobs = grid(list(EXPERIMENTS), seeds=(0, 1, 2))
     names = [job.name for job in jobs]
     assert len(names) == len(set(names))
@@ -19,11 +25,19 @@ def test_shared_jobs_run_once_and_every_first_stage_is_built_first():
     # Fig. 11's softplus run is Fig. 10's alpha 0.1 run and the advisor ablation's fixed row
     assert "diffusion_lac/ves/s_surface/fixed-softplus-alpha0.1/seed0" in names
     assert sum("fixed-softplus-alpha0.1" in n for n in names) == 3
-    # every (sea, controller, seed) of a diffusion job has its proposer-alone builder, first
+    # every (sea, controller, seed) of a diffusion job has its proposer-alone builder, and the
+    # jobs that reuse a first stage follow its builder, before the next first stage's
     builders = [job for job in jobs if job.framework == "diffusion"]
-    assert jobs[: len(builders)] == builders
     needed = {(j.sea, j.controller, j.seed) for j in jobs if j.framework != "sac"}
     assert needed == {(j.sea, j.controller, j.seed) for j in builders}
+    for builder in builders:
+        users = [i for i, job in enumerate(jobs) if first_stage_job(job) == builder]
+        at = jobs.index(builder)
+        assert users == list(range(at + 1, at + 1 + len(users)))
+    # seed by seed: one seed of every experiment before the next seed's jobs
+    assert [job.seed for job in jobs] == sorted(job.seed for job in jobs)
+    assert first_stage_job(Job("sac", "es", "pid", 0)) is None
+    assert first_stage_job(builders[0]) is None
 
 
 def test_overrides_give_each_framework_only_its_groups(tmp_path):

@@ -37,6 +37,7 @@ __all__ = [
     "FRAMEWORKS",
     "Job",
     "experiment_jobs",
+    "first_stage_job",
     "grid",
 ]
 
@@ -212,21 +213,47 @@ def experiment_jobs(experiment: str, seeds: Sequence[int]) -> list[Job]:
     return EXPERIMENTS[experiment](tuple(seeds))
 
 
+def first_stage_job(job: Job) -> Job | None:
+    """The proposer-alone job (``diffusion``) whose run builds the first stage ``job`` reuses:
+    the same sea, controller and seed (the grid's jobs share the rate model and the first-stage
+    keys). ``None`` for SAC (no proposer) and for a proposer-alone job itself."""
+    if job.framework in ("sac", "diffusion"):
+        return None
+    return Job("diffusion", job.sea, job.controller, job.seed)
+
+
 def grid(experiments: Iterable[str], seeds: Sequence[int]) -> list[Job]:
     """The union of the experiments' jobs, each once, with the proposer alone (``diffusion``)
-    for every first stage a diffusion job needs, run first: they build the artefacts the other
-    diffusion jobs then reuse (two jobs starting together on one unbuilt artefact would leave
-    one waiting for the other's build)."""
+    for every first stage a diffusion job needs, grouped by first stage: its builder, then the
+    jobs that reuse it (so a sitting spends the first stages it builds: only their records go
+    into the results store). Seed by seed (one seed of every experiment is done before the
+    next seed starts); within a seed the first stages with the most jobs first, then SAC.
+    ``recipes/paper/run_all.py`` starts a job only once its first stage's builder has ended
+    (two jobs starting together on one unbuilt artefact would leave one waiting for the
+    other's build)."""
     found: dict[str, Job] = {}
     for experiment in experiments:
         for job in experiment_jobs(experiment, seeds):
             found.setdefault(job.name, job)
-    for job in list(found.values()):
-        if job.framework != "sac":
-            builder = Job("diffusion", job.sea, job.controller, job.seed)
-            found.setdefault(builder.name, builder)
+    users: dict[Job, list[Job]] = {}
+    for job in found.values():
+        builder = first_stage_job(job)
+        if builder is not None:
+            users.setdefault(builder, []).append(job)
+    for builder in users:
+        found.setdefault(builder.name, builder)
     order = {name: i for i, name in enumerate(FRAMEWORKS)}
-    builders = [job for job in found.values() if job.framework == "diffusion"]
-    others = sorted((job for job in found.values() if job.framework != "diffusion"),
-                    key=lambda job: (order[job.framework], job.name))  # fmt: skip
-    return builders + others
+    by_name = lambda job: (order[job.framework], job.name)  # noqa: E731
+    ordered: list[Job] = []
+    for seed in dict.fromkeys(job.seed for job in found.values()):
+        groups = sorted((builder for builder in users if builder.seed == seed),
+                        key=lambda b: (-len(users[b]), SEAS.index(b.sea),
+                                       CONTROLLERS.index(b.controller)))  # fmt: skip
+        for builder in groups:
+            ordered += [found[builder.name], *sorted(users[builder], key=by_name)]
+        alone = [job for job in found.values() if job.seed == seed and job.framework == "diffusion"
+                 and job not in users]  # fmt: skip
+        ordered += sorted(alone, key=by_name)
+        ordered += sorted((job for job in found.values() if job.seed == seed
+                           and job.framework == "sac"), key=by_name)  # fmt: skip
+    return ordered
