@@ -17,6 +17,9 @@
 2. The report (``torchrl_auv.report.paper.write_report``): per experiment, under
    ``<run_root>/report/<experiment>/``, PNG figures, a Markdown table, the same as CSV and a
    JSON of every number, each stating the budget and seeds.
+3. With ``page=docs/results.md``: the results page from the report (our numbers next to the
+   paper's, a verdict per claim, the run's facts; ``torchrl_auv.report.paper.results_page``),
+   its figures copied to ``docs/results/``.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 
 from torchrl_auv.report.paper import grid, store, write_report
+from torchrl_auv.report.paper.results_page import write_results_page
 
 HERE = Path(__file__).resolve().parent
 TRAIN = HERE.parent / "train.py"
@@ -143,6 +147,9 @@ def main(cfg: DictConfig) -> None:
                                config=OmegaConf.to_container(cfg, resolve=True))  # fmt: skip
         for path in written:
             log.info("wrote %s", path)
+    if cfg.get("page"):
+        page = write_results_page(root, cfg.page, seeds=seeds, jobs=jobs, experiments=experiments)
+        log.info("wrote the results page %s", page)
     if failed:
         log.error("%d jobs failed: %s", len(failed), ", ".join(failed))
         raise SystemExit(1)

@@ -29,7 +29,7 @@ from torchrl_auv.report.paper.output import first_stage_folder, job_rows, mean_s
 from torchrl_auv.report.paper.published import FIG8_RETURN_E3
 from torchrl_auv.report.paper.tables import LABELS
 
-__all__ = ["fig4", "fig5_6", "fig7", "fig8_9", "fig10_11"]
+__all__ = ["fig4", "fig5_6", "fig7", "fig8_9", "fig10_11", "lyapunov_trace"]
 
 
 def _plt():
@@ -253,7 +253,10 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     )
 
 
-def _trace(root: Path, job: Job) -> dict[str, list[float]] | None:
+def lyapunov_trace(root: Path, job: Job) -> dict[str, list[float]] | None:
+    """The job's ``lyapunov_trace.csv``: per decision of the held-out episodes, the mean and
+    std over episodes of the executed candidate's Lyapunov value, and the episodes counted;
+    ``None`` when the job wrote none."""
     path = Path(root) / "jobs" / job.name / "lyapunov_trace.csv"
     if not path.exists():
         return None
@@ -277,7 +280,7 @@ def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
     fig, ax = plt.subplots(figsize=(6.5, 3.6))
     rows = []
     for label, form, alpha in variants:
-        traces = [_trace(root, Job("diffusion_lac", MAIN_SEA, "s_surface", s,
+        traces = [lyapunov_trace(root, Job("diffusion_lac", MAIN_SEA, "s_surface", s,
                                    f"fixed-{form}-alpha{alpha}")) for s in seeds]  # fmt: skip
         traces = [t for t in traces if t is not None]
         if not traces:

@@ -1,0 +1,93 @@
+"""The results page: claims judged from the jobs' own numbers by the stated rule, every
+figure and table of the report on the page, the run's facts, nothing not yet run shown as
+a number."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+from torchrl_auv.report.paper.claims import CLAIMS, compare, judge, verdict
+from torchrl_auv.report.paper.grid import Job
+from torchrl_auv.report.paper.results_page import write_results_page
+
+COLUMNS = ("sea_state", "policy", "cost_mean", "ssn", "sdr_mbit", "ec_w")
+
+
+def _finish(root, job, **metrics):
+    """A finished job whose own policy row has ``metrics`` (the rest 0)."""
+    folder = root / "jobs" / job.name
+    folder.mkdir(parents=True)
+    with open(folder / "eval.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerow({"sea_state": job.sea, "policy": job.framework, "cost_mean": 0.0,
+                         "ssn": 0.0, "sdr_mbit": 0.0, "ec_w": 0.0, **metrics})  # fmt: skip
+
+
+def _claim(text_start):
+    return next(i for i, claim in enumerate(CLAIMS) if claim.text.startswith(text_start))
+
+
+def test_the_outcome_follows_the_gap_against_the_standard_error():
+    # gap 1.0; standard error sqrt(2 * 0.9^2 / 3) = 0.73 (holds) or sqrt(2 * 1.5^2 / 3) = 1.22
+    assert compare((3.0, 0.9, 3), (2.0, 0.9, 3), higher=True) == "holds"
+    assert compare((3.0, 1.5, 3), (2.0, 1.5, 3), higher=True) == "within noise"
+    assert compare((2.0, 0.9, 3), (3.0, 0.9, 3), higher=False) == "holds"  # lower is better
+    assert compare((3.0, 0.0, 1), (2.0, 0.0, 1), higher=True) == "within noise"  # one seed
+    assert compare((3.0, 0.1, 3), (float("nan"), 0.0, 0), higher=True) == "missing"
+    assert verdict(["holds", "within noise"]) == "partly"
+    assert verdict(["reversed", "missing"]) == "not reproduced (1 of 2 comparisons ran)"
+
+
+def test_claims_are_judged_from_each_jobs_own_row(tmp_path):
+    """RL (SAC) against both diffusion frameworks in every sea: the diffusion jobs cost less
+    than SAC by far in ideal and ES, and more in VES: 'partly', with VES reversed."""
+    seeds = (0, 1, 2)
+    for seed in seeds:
+        for sea in ("ideal", "es", "ves"):
+            _finish(tmp_path, Job("sac", sea, "s_surface", seed), cost_mean=2.0 + 0.01 * seed)
+            for framework in ("diffusion_rl", "diffusion_lac"):
+                cost = 3.0 if sea == "ves" else 1.0 + 0.01 * seed
+                _finish(tmp_path, Job(framework, sea, "s_surface", seed), cost_mean=cost,
+                        ssn=5.0 + seed)  # fmt: skip
+    rows = judge(tmp_path, seeds)
+    cost = rows[_claim("Diffusion+RL and Diffusion+RL (LAC) reach a better return")]
+    outcomes = [outcome for outcome, _ in cost["comparisons"]]
+    assert outcomes == ["holds"] * 4 + ["reversed"] * 2
+    assert cost["verdict"] == "partly"
+    assert "ves: Diffusion+RL 3 ± 0 vs RL 2.01 ± 0.01" in cost["comparisons"][4][1]
+    ssn = rows[_claim("... and serve more sensor nodes")]
+    assert ssn["verdict"] == "reproduced"  # 5-7 nodes against SAC's 0, every sea
+    # the claims whose jobs did not run say so
+    assert rows[_claim("The return falls monotonically")]["verdict"] == "not run yet"
+
+
+def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
+    root, page = tmp_path / "run", tmp_path / "docs" / "results.md"
+    jobs = [Job("sac", "ves", "s_surface", 0), Job("diffusion", "ves", "s_surface", 0)]
+    _finish(root, jobs[0], cost_mean=2.0)
+    (root / "jobs" / jobs[0].name / "summary.md").write_text(
+        "- wall time this session (s): 3600\n- evaluation wall time (s): 1800\n"
+    )
+    report = root / "report"
+    (report / "fig7").mkdir(parents=True)
+    (report / "fig7" / "fig7.png").write_bytes(b"\x89PNG figure")
+    (report / "table2").mkdir()
+    (report / "table2" / "table2.md").write_text(
+        "budget paper, seeds [0]\n\n| framework | ssn |\n|---|---|\n| LAC | nan ± nan |\n"
+    )
+    (report / "run.json").write_text(json.dumps(
+        {"budget": "paper", "frames": 50000, "commit": "abc1234", "command": "run_all.py x",
+         "date": "2026-12-04", "machine": "Linux"}))  # fmt: skip
+    write_results_page(root, page, seeds=[0], jobs=jobs)
+    text = page.read_text()
+    assert (tmp_path / "docs" / "results" / "fig7.png").read_bytes() == b"\x89PNG figure"
+    assert "![Fig. 7: learning curves](results/fig7.png)" in text
+    assert "*budget paper, seeds [0]*" in text and "| LAC | – |" in text
+    assert "nan" not in text
+    assert "**1 of 2**" in text and "| jobs finished | 1 of 2 |" in text
+    assert "1.5 h of one core" in text and "`abc1234`" in text and "50,000 frames" in text
+    # every claim has its verdict row, and an experiment without outputs says so
+    assert text.count("| **not run yet** |") == len(CLAIMS)
+    assert "Not in this report" in text
