@@ -147,6 +147,8 @@ def main(cfg: DictConfig) -> None:
                                config=OmegaConf.to_container(cfg, resolve=True))  # fmt: skip
         for path in written:
             log.info("wrote %s", path)
+        if stored is not None:  # what the report made from first stages alone (Fig. 5/6)
+            store.save_finished(root, stored, jobs)
     if cfg.get("page"):
         page = write_results_page(root, cfg.page, seeds=seeds, jobs=jobs, experiments=experiments)
         log.info("wrote the results page %s", page)

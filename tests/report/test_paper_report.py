@@ -9,7 +9,7 @@ import statistics
 
 import pytest
 
-from torchrl_auv.report.paper import write_report
+from torchrl_auv.report.paper import figures, store, write_report
 from torchrl_auv.report.paper.grid import Job, experiment_jobs
 
 POLICIES = ("diffusion_rl", "diffusion_lac", "sac", "diffusion", "OA", "CA1", "CA2", "CA3",
@@ -100,3 +100,24 @@ def test_an_unknown_experiment_is_refused_before_writing(tmp_path):
     with pytest.raises(ValueError, match="fig99"):
         write_report(tmp_path, ["fig99"], seeds=(0,), budget="quick")
     assert not (tmp_path / "report").exists()
+
+
+def test_fig5_6_is_drawn_again_from_stored_rollouts_where_the_first_stage_is_gone(tmp_path):
+    """The machine that built the first stage wrote fig5_6.json; the store carries it to a
+    machine without the first stage, where Fig. 5/6 is drawn from it."""
+    first, store_dir, second = tmp_path / "m1", tmp_path / "store", tmp_path / "m2"
+    paths = [[[[[10.0 * s + k + t, 2.0 * t + auv, 5.0] for auv in range(2)] for t in range(9)]
+              for k in range(5)] for s in range(3)]  # fmt: skip
+    rollouts = {"header": "h", "artefact": "ves-s_surface-x", "stages": ["a", "b", "c"],
+                "chunks": [], "paths_ned_m": paths}  # fmt: skip
+    (first / "report" / "fig5_6").mkdir(parents=True)
+    (first / "report" / "fig5_6" / "fig5_6.json").write_text(json.dumps(rollouts))
+    assert [p.name for p in store.save_finished(first, store_dir, [])] == ["fig5_6.json"]
+    assert [p.name for p in store.restore_finished(store_dir, second, [])] == ["fig5_6.json"]
+    out = second / "report" / "fig5_6"
+    written = figures.fig5_6(second, out, [0], "h")
+    assert sorted(p.name for p in written) == ["fig5.png", "fig5_6.json", "fig6.png"]
+    assert all(p.stat().st_size > 1000 for p in written)
+    assert json.loads((out / "fig5_6.json").read_text())["paths_ned_m"] == paths
+    # without the stored rollouts and without the first stage there is nothing to draw
+    assert figures.fig5_6(tmp_path / "m3", tmp_path / "m3" / "out", [0], "h") == []

@@ -101,7 +101,9 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     state of a held-out scene, at three denoising stages (early, middle, final), each rolled
     out through the vehicles (:func:`~torchrl_auv.report.candidate_rollouts.
     roll_out_candidates`): Fig. 5 the top view of the first AUV's paths, Fig. 6 both AUVs in
-    3-D; ``fig5_6.json`` holds the chunks and the paths (m, NED)."""
+    3-D; ``fig5_6.json`` holds the chunks and the paths (m, NED). Where the first stage is
+    not on this machine, the paths of an earlier report's ``fig5_6.json`` in ``out_dir`` (the
+    results store restores it) are plotted again."""
     import json
 
     from torchrl_auv.modules import DiffusionProposer
@@ -109,8 +111,14 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     from torchrl_auv.training import make_history_env
 
     folder = first_stage_folder(root, MAIN_SEA, seeds[0])
+    data = Path(out_dir) / "fig5_6.json"
     if folder is None:
-        return []
+        # the first stage is not on this machine: the rollouts of an earlier report (restored
+        # from the results store), which depend on the first stage alone
+        if not data.exists():
+            return []
+        stored = json.loads(data.read_text())
+        return [*_plot_fig5_6(stored["paths_ned_m"], stored["stages"], Path(out_dir)), data]
     proposer = DiffusionProposer.load(folder / "proposer.pt")
     values = json.loads((folder / "values.json").read_text())
     history = values["demonstrations"]["history"]
@@ -124,31 +132,7 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     chunks = stages[0].permute(1, 2, 0, 3, 4)  # [N, S, K, H, A] -> [S, K, N, H, A]
     paths = roll_out_candidates(make, chunks)  # [S, K, H + 1, N, 3]
     labels = ["early", "middle", "final"]
-    plt = _plt()
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.8), squeeze=False)
-    for s, ax in enumerate(axes[0]):
-        for k in range(paths.shape[1]):
-            ax.plot(paths[s, k, :, 0, 1], paths[s, k, :, 0, 0], marker=".", label=f"candidate {k}")
-        ax.set_title(f"{labels[s]} stage")
-        ax.set_xlabel("east (m)")
-        ax.set_aspect("equal", adjustable="datalim")
-    axes[0, 0].set_ylabel("north (m)")
-    axes[0, -1].legend(fontsize="x-small")
-    written = [_save(fig, Path(out_dir) / "fig5.png")]
-    fig = plt.figure(figsize=(11, 3.8))
-    for s in range(3):
-        ax = fig.add_subplot(1, 3, s + 1, projection="3d")
-        for auv in range(paths.shape[3]):
-            for k in range(paths.shape[1]):
-                p = paths[s, k, :, auv]
-                ax.plot(p[:, 1], p[:, 0], p[:, 2], color=f"C{auv}", alpha=0.8)
-        ax.set_title(f"{labels[s]} stage (AUV 1: C0, AUV 2: C1)", fontsize="small")
-        ax.set_xlabel("east (m)")
-        ax.set_ylabel("north (m)")
-        ax.set_zlabel("depth (m)")
-        ax.invert_zaxis()
-    written.append(_save(fig, Path(out_dir) / "fig6.png"))
-    data = Path(out_dir) / "fig5_6.json"
+    written = _plot_fig5_6(paths.tolist(), labels, Path(out_dir))
     data.write_text(
         json.dumps(
             {
@@ -161,6 +145,37 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         )
     )
     return [*written, data]
+
+
+def _plot_fig5_6(paths: list, labels: Sequence[str], out_dir: Path) -> list[Path]:
+    """Fig. 5 (top view of the first AUV) and Fig. 6 (3-D, both AUVs) from the candidates'
+    rolled-out positions ``paths[stage][candidate][step][auv] = (north, east, down)`` (m)."""
+    paths = torch.as_tensor(paths)
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.8), squeeze=False)
+    for s, ax in enumerate(axes[0]):
+        for k in range(paths.shape[1]):
+            ax.plot(paths[s, k, :, 0, 1], paths[s, k, :, 0, 0], marker=".", label=f"candidate {k}")
+        ax.set_title(f"{labels[s]} stage")
+        ax.set_xlabel("east (m)")
+        ax.set_aspect("equal", adjustable="datalim")
+    axes[0, 0].set_ylabel("north (m)")
+    axes[0, -1].legend(fontsize="x-small")
+    written = [_save(fig, out_dir / "fig5.png")]
+    fig = plt.figure(figsize=(11, 3.8))
+    for s in range(3):
+        ax = fig.add_subplot(1, 3, s + 1, projection="3d")
+        for auv in range(paths.shape[3]):
+            for k in range(paths.shape[1]):
+                p = paths[s, k, :, auv]
+                ax.plot(p[:, 1], p[:, 0], p[:, 2], color=f"C{auv}", alpha=0.8)
+        ax.set_title(f"{labels[s]} stage (AUV 1: C0, AUV 2: C1)", fontsize="small")
+        ax.set_xlabel("east (m)")
+        ax.set_ylabel("north (m)")
+        ax.set_zlabel("depth (m)")
+        ax.invert_zaxis()
+    written.append(_save(fig, out_dir / "fig6.png"))
+    return written
 
 
 CURVE_KEYS = (("eval/cost_mean", "cost per AUV-decision"), ("eval/sdr_mbit", "SDR (Mbit)"),

@@ -11,7 +11,8 @@ new machine (its checkpoints are not stored); a first stage a job needs is rebui
 artefact: its build is seeded). Of each built first stage the store keeps the record Fig. 4
 reads (:data:`FIRST_STAGE_FILES`, under ``DIR/first_stage/<artefact>/``), restored into
 ``<run folder>/first_stage_records/`` (not ``first_stage/``: an artefact folder without its
-proposer would be taken for a built one).
+proposer would be taken for a built one), and the report's Fig. 5/6 rollouts
+(:data:`REPORT_FILES`), which Fig. 5/6 draws again where its first stage is gone.
 
 Examples:
     >>> import tempfile
@@ -41,6 +42,7 @@ __all__ = [
     "FINISHED_MARK",
     "FIRST_STAGE_FILES",
     "RECORDS",
+    "REPORT_FILES",
     "STORED_FILES",
     "restore_finished",
     "save_finished",
@@ -69,6 +71,10 @@ FIRST_STAGE_FILES = ("pretrain_loss.csv", "metrics.json", "values.json")
 #: Where the restored first-stage records go under a run folder.
 RECORDS = "first_stage_records"
 
+#: Report outputs made from a first stage alone, kept so that a machine without it can draw
+#: them again: Fig. 5/6's rolled-out candidates (about 30 kB).
+REPORT_FILES = ("report/fig5_6/fig5_6.json",)
+
 
 def _copy_marked(src: Path, dst: Path, names: tuple[str, ...], mark: str) -> list[Path]:
     """Copy ``names`` (those that exist) from ``src`` to ``dst`` when ``src`` holds ``mark``
@@ -96,6 +102,17 @@ def _copy_first_stages(source: Path, target: Path) -> list[Path]:
                                      "values.json")]  # fmt: skip
 
 
+def _copy_report_files(source: Path, target: Path) -> list[Path]:
+    """:data:`REPORT_FILES` that ``source`` holds and ``target`` lacks."""
+    written = []
+    for name in REPORT_FILES:
+        if (source / name).is_file() and not (target / name).exists():
+            (target / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source / name, target / name)
+            written.append(target / name)
+    return written
+
+
 def _copy_finished(source: Path, target: Path, jobs: Iterable[Job]) -> list[Path]:
     """Copy :data:`STORED_FILES` of the jobs finished under ``source`` and not under
     ``target``; returns the written paths."""
@@ -109,10 +126,11 @@ def save_finished(root: str | Path, store: str | Path, jobs: Iterable[Job]) -> l
     ``root`` into ``store`` (``store/jobs/<job.name>/``), each job once: a job already in the
     store is left as it is. Its ``eval.csv`` is copied last, so a copy cut short is not taken
     for a finished job. The records of the first stages built under ``root/first_stage`` go
-    to ``store/first_stage``. Returns the written paths."""
+    to ``store/first_stage``, and :data:`REPORT_FILES` the report wrote under ``root`` to
+    ``store/report``. Returns the written paths."""
     root, store = Path(root), Path(store)
     records = _copy_first_stages(root / "first_stage", store / "first_stage")
-    return _copy_finished(root, store, jobs) + records
+    return _copy_finished(root, store, jobs) + records + _copy_report_files(root, store)
 
 
 def restore_finished(store: str | Path, root: str | Path, jobs: Iterable[Job]) -> list[Path]:
@@ -121,4 +139,4 @@ def restore_finished(store: str | Path, root: str | Path, jobs: Iterable[Job]) -
     ``root/first_stage_records`` (:data:`RECORDS`); returns the written paths."""
     store, root = Path(store), Path(root)
     records = _copy_first_stages(store / "first_stage", root / RECORDS)
-    return _copy_finished(store, root, jobs) + records
+    return _copy_finished(store, root, jobs) + records + _copy_report_files(store, root)
