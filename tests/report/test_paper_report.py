@@ -121,3 +121,17 @@ def test_fig5_6_is_drawn_again_from_stored_rollouts_where_the_first_stage_is_gon
     assert json.loads((out / "fig5_6.json").read_text())["paths_ned_m"] == paths
     # without the stored rollouts and without the first stage there is nothing to draw
     assert figures.fig5_6(tmp_path / "m3", tmp_path / "m3" / "out", [0], "h") == []
+
+
+def test_fig8_9_puts_the_papers_numbers_beside_ours(tmp_path):
+    write_report(tmp_path, ["fig8_9"], seeds=(0,), budget="quick")
+    rows = {r["policy"]: r for r in json.loads((tmp_path / "report/fig8_9/fig8_9.json")
+                                               .read_text())["rows"]}  # fmt: skip
+    assert rows["OA"]["paper ssn"] == 67.0 and rows["RL (LAC)"]["paper sdr_mbit"] == 105.0
+    assert (
+        rows["CA4"]["paper ec_w"] == 378.0 and rows["CA3"]["paper ssn"] != rows["CA3"]["paper ssn"]
+    )
+    columns = (tmp_path / "report/fig8_9/fig8_9.md").read_text().splitlines()[2]
+    assert columns.startswith(
+        "| policy | runs | return | paper return (x 1e3) | sdr_mbit | paper sdr_mbit"
+    )

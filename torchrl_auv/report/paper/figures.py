@@ -26,7 +26,7 @@ from torchrl_auv.report.paper.grid import (
     Job,
 )
 from torchrl_auv.report.paper.output import first_stage_folder, job_rows, mean_std, write_table
-from torchrl_auv.report.paper.published import FIG8_RETURN_E3
+from torchrl_auv.report.paper.published import FIG8_RETURN_E3, FIG9
 from torchrl_auv.report.paper.tables import LABELS
 
 __all__ = ["fig4", "fig5_6", "fig7", "fig8_9", "fig10_11", "lyapunov_trace"]
@@ -248,8 +248,9 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         cell = job_rows(root, jobs, policy, ("cost_mean", "decisions", "sdr_mbit", "ssn", "ec_w"))
         cell["return"] = -cell["cost_mean"] * cell["decisions"]
         cell["return_std"] = cell["cost_mean_std"] * cell["decisions"]
+        paper = {f"paper {m}": FIG9[policy].get(m, math.nan) for m in metrics[1:]}
         rows.append({"policy": "RL (LAC)" if policy == "RL" else policy, **cell,
-                     "paper return (x 1e3)": FIG8_RETURN_E3[policy]})  # fmt: skip
+                     "paper return (x 1e3)": FIG8_RETURN_E3[policy], **paper})  # fmt: skip
     fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.2), squeeze=False)
     for ax, metric in zip(axes[0], metrics, strict=True):
         values = [r[metric] if math.isfinite(r[metric]) else 0.0 for r in rows]
@@ -262,9 +263,12 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         out_dir,
         "fig8_9",
         rows,
-        ["policy", "runs", *metrics, "paper return (x 1e3)"],
+        ["policy", "runs", "return", "paper return (x 1e3)",
+         *(c for m in metrics[1:] for c in (m, f"paper {m}"))],
         header=header + f"; sea {MAIN_SEA}; return = -cost per AUV summed over the episode "
-        "(mean cost x decisions; the paper's return is on its own reward scale)",
+        "(mean cost x decisions; the paper's return is on its own reward scale); the paper's "
+        "SDR is in its own unit (MBit/s) of its link-rate formula (Fig. 9: no CA3 numbers, EC "
+        "for OA and CA4 only)",
     )
 
 

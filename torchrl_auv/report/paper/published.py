@@ -11,11 +11,13 @@ Examples:
     (54.8, 5.9)
     >>> TABLE3[("sac", "pid")]["heading_error_mean"]
     0.58
+    >>> FIG9["OA"]["ssn"], FIG9["CA4"]["sdr_mbit"]
+    (67.0, 53.0)
 """
 
 from __future__ import annotations
 
-__all__ = ["FIG8_RETURN_E3", "TABLE2", "TABLE3"]
+__all__ = ["FIG8_RETURN_E3", "FIG9", "TABLE2", "TABLE3"]
 
 
 def _t2(sdr, sdr_std, ec, ec_std, ssn, ssn_std) -> dict[str, tuple[float, float]]:
@@ -63,3 +65,10 @@ TABLE3 = {
 #: Fig. 8: episode return (x 10^3) per action strategy, from the paper's text
 FIG8_RETURN_E3 = {"OA": -4620.9, "CA1": -4931.1, "RL": -5193.4, "CA2": -5327.7,
                   "CA3": -5665.0, "CA4": -8330.8}  # fmt: skip
+
+#: Fig. 9: SDR ("MBit/s"), SSN and EC (W) per action strategy, from the paper's text (it gives
+#: no CA3 numbers, and EC only for OA and CA4)
+FIG9 = {"OA": {"sdr_mbit": 128.0, "ssn": 67.0, "ec_w": 417.0},
+        "CA1": {"sdr_mbit": 121.0, "ssn": 64.0}, "CA2": {"sdr_mbit": 113.0, "ssn": 60.0},
+        "CA3": {}, "CA4": {"sdr_mbit": 53.0, "ssn": 27.0, "ec_w": 378.0},
+        "RL": {"sdr_mbit": 105.0, "ssn": 55.0}}  # fmt: skip
