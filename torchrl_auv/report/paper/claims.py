@@ -195,17 +195,23 @@ def _faster_start(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
     return out
 
 
-def _s_surface_best(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
-    out = []
-    for framework in ("diffusion_rl", "diffusion_lac"):
-        for sea in ("es", "ves"):
-            for metric in ("sdr_mbit", "ssn"):
-                best = _stat(root, framework, sea, "s_surface", seeds, metric)
-                for other in ("pid", "smc"):
-                    them = _stat(root, framework, sea, other, seeds, metric)
-                    name = f"{LABELS[framework]} {sea} {metric}: S-Surface"
-                    out.append(_pair(name, best, other.upper(), them, higher=True))
-    return out
+def _s_surface_first(frameworks: Sequence[str], seas: Sequence[str], metrics: Sequence[str],
+                     *, higher: bool):  # fmt: skip
+    """S-Surface against PID and against SMC, per framework, sea and metric."""
+
+    def check(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
+        out = []
+        for framework in frameworks:
+            for sea in seas:
+                for metric in metrics:
+                    best = _stat(root, framework, sea, "s_surface", seeds, metric)
+                    for other in ("pid", "smc"):
+                        them = _stat(root, framework, sea, other, seeds, metric)
+                        name = f"{LABELS[framework]} {sea} {metric}: S-Surface"
+                        out.append(_pair(name, best, other.upper(), them, higher=higher))
+        return out
+
+    return check
 
 
 def _smc_degrades(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
@@ -230,18 +236,6 @@ def _lac_every_controller(root: Path, seeds: Sequence[int]) -> list[tuple[str, s
 
 
 TRACKING = ("heading_error_mean", "depth_error_mean")
-
-
-def _tracking_s_surface(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
-    out = []
-    for framework in LABELS:
-        for metric in TRACKING:
-            best = _stat(root, framework, MAIN_SEA, "s_surface", seeds, metric)
-            for other in ("pid", "smc"):
-                them = _stat(root, framework, MAIN_SEA, other, seeds, metric)
-                name = f"{LABELS[framework]} {metric}: S-Surface"
-                out.append(_pair(name, best, other.upper(), them, higher=False))
-    return out
 
 
 def _tracking_lac_best(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
@@ -339,12 +333,13 @@ CLAIMS = [
     Claim("EC is comparable across the diffusion frameworks (within 10 %)", "Fig. 7",
           _ec_comparable),
     Claim("S-Surface gives the highest SDR and SSN of the three controllers", "Table II",
-          _s_surface_best),
+          _s_surface_first(("diffusion_rl", "diffusion_lac"), ("es", "ves"), ("sdr_mbit", "ssn"),
+                           higher=True)),
     Claim("SMC degrades severely from ES to VES (SSN)", "Table II", _smc_degrades),
     Claim("LAC improves SDR and SSN with every controller in both seas", "Table II",
           _lac_every_controller),
     Claim("S-Surface has the lowest yaw and depth errors in every framework", "Table III",
-          _tracking_s_surface),
+          _s_surface_first(tuple(LABELS), (MAIN_SEA,), TRACKING, higher=False)),
     Claim("Diffusion+RL (LAC) with S-Surface has the lowest errors of the frameworks",
           "Table III", _tracking_lac_best),
     Claim("The return falls monotonically from OA through CA1 to CA4", "Fig. 8",
