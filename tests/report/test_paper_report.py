@@ -135,3 +135,31 @@ def test_fig8_9_puts_the_papers_numbers_beside_ours(tmp_path):
     assert columns.startswith(
         "| policy | runs | return | paper return (x 1e3) | sdr_mbit | paper sdr_mbit"
     )
+
+
+def test_the_sampler_time_of_an_earlier_report_stands_where_the_first_stage_is_gone(tmp_path):
+    job = Job("diffusion_lac", "ves", "s_surface", 0, "ddim10")
+    config = tmp_path / "jobs" / job.name / ".hydra" / "config.yaml"
+    config.parent.mkdir(parents=True)
+    config.write_text("proposer:\n  sampler: ddim\n  num_inference_steps: 10\n  history: 10\n")
+    out = tmp_path / "report" / "sampler"
+    out.mkdir(parents=True)
+    earlier = {"rows": [{"variant": "10 DDIM steps", "sampler": "ddim 10",
+                         "proposer_s_per_decision": 0.0042}]}  # fmt: skip
+    (out / "sampler.json").write_text(json.dumps(earlier))
+    write_report(tmp_path, ["sampler"], seeds=(0,), budget="paper")
+    rows = json.loads((out / "sampler.json").read_text())["rows"]
+    assert rows[1]["sampler"] == "ddim 10" and rows[1]["proposer_s_per_decision"] == 0.0042
+    # the store saves the newer report's file over an older one, and restores it where missing
+    store_dir = tmp_path / "store"
+    (store_dir / "report" / "sampler").mkdir(parents=True)
+    (store_dir / "report" / "sampler" / "sampler.json").write_text("{}")
+    store.save_finished(tmp_path, store_dir, [])
+    assert (store_dir / "report/sampler/sampler.json").read_text() == (
+        out / "sampler.json"
+    ).read_text()
+    # no earlier report and no first stage: no time, not a crash
+    (out / "sampler.json").unlink()
+    write_report(tmp_path, ["sampler"], seeds=(0,), budget="paper")
+    rows = json.loads((out / "sampler.json").read_text())["rows"]
+    assert rows[1]["proposer_s_per_decision"] != rows[1]["proposer_s_per_decision"]  # NaN

@@ -263,8 +263,13 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         out_dir,
         "fig8_9",
         rows,
-        ["policy", "runs", "return", "paper return (x 1e3)",
-         *(c for m in metrics[1:] for c in (m, f"paper {m}"))],
+        [
+            "policy",
+            "runs",
+            "return",
+            "paper return (x 1e3)",
+            *(c for m in metrics[1:] for c in (m, f"paper {m}")),
+        ],
         header=header + f"; sea {MAIN_SEA}; return = -cost per AUV summed over the episode "
         "(mean cost x decisions; the paper's return is on its own reward scale); the paper's "
         "SDR is in its own unit (MBit/s) of its link-rate formula (Fig. 9: no CA3 numbers, EC "

@@ -71,9 +71,10 @@ FIRST_STAGE_FILES = ("pretrain_loss.csv", "metrics.json", "values.json")
 #: Where the restored first-stage records go under a run folder.
 RECORDS = "first_stage_records"
 
-#: Report outputs made from a first stage alone, kept so that a machine without it can draw
-#: them again: Fig. 5/6's rolled-out candidates (about 30 kB).
-REPORT_FILES = ("report/fig5_6/fig5_6.json",)
+#: Report outputs made from a first stage alone, kept so that a machine without it can make
+#: them again: Fig. 5/6's rolled-out candidates (about 30 kB) and the sampler ablation's
+#: proposer times per decision.
+REPORT_FILES = ("report/fig5_6/fig5_6.json", "report/sampler/sampler.json")
 
 
 def _copy_marked(src: Path, dst: Path, names: tuple[str, ...], mark: str) -> list[Path]:
@@ -102,14 +103,19 @@ def _copy_first_stages(source: Path, target: Path) -> list[Path]:
                                      "values.json")]  # fmt: skip
 
 
-def _copy_report_files(source: Path, target: Path) -> list[Path]:
-    """:data:`REPORT_FILES` that ``source`` holds and ``target`` lacks."""
+def _copy_report_files(source: Path, target: Path, *, update: bool) -> list[Path]:
+    """:data:`REPORT_FILES` that ``source`` holds and ``target`` lacks or, with ``update``
+    (saving: the run folder's report is the latest), holds with other content."""
     written = []
     for name in REPORT_FILES:
-        if (source / name).is_file() and not (target / name).exists():
-            (target / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(source / name, target / name)
-            written.append(target / name)
+        src, dst = source / name, target / name
+        if not src.is_file():
+            continue
+        if dst.exists() and not (update and dst.read_bytes() != src.read_bytes()):
+            continue
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(src, dst)
+        written.append(dst)
     return written
 
 
@@ -126,11 +132,12 @@ def save_finished(root: str | Path, store: str | Path, jobs: Iterable[Job]) -> l
     ``root`` into ``store`` (``store/jobs/<job.name>/``), each job once: a job already in the
     store is left as it is. Its ``eval.csv`` is copied last, so a copy cut short is not taken
     for a finished job. The records of the first stages built under ``root/first_stage`` go
-    to ``store/first_stage``, and :data:`REPORT_FILES` the report wrote under ``root`` to
+    to ``store/first_stage``, and :data:`REPORT_FILES` of the latest report under ``root`` to
     ``store/report``. Returns the written paths."""
     root, store = Path(root), Path(store)
     records = _copy_first_stages(root / "first_stage", store / "first_stage")
-    return _copy_finished(root, store, jobs) + records + _copy_report_files(root, store)
+    report = _copy_report_files(root, store, update=True)
+    return _copy_finished(root, store, jobs) + records + report
 
 
 def restore_finished(store: str | Path, root: str | Path, jobs: Iterable[Job]) -> list[Path]:
@@ -139,4 +146,5 @@ def restore_finished(store: str | Path, root: str | Path, jobs: Iterable[Job]) -
     ``root/first_stage_records`` (:data:`RECORDS`); returns the written paths."""
     store, root = Path(store), Path(root)
     records = _copy_first_stages(store / "first_stage", root / RECORDS)
-    return _copy_finished(store, root, jobs) + records + _copy_report_files(store, root)
+    report = _copy_report_files(store, root, update=False)
+    return _copy_finished(store, root, jobs) + records + report

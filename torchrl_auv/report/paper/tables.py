@@ -10,6 +10,8 @@ tracking errors between the controller's setpoints and the true state (rad, m).
 
 from __future__ import annotations
 
+import json
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -131,7 +133,7 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
     extra = []
     if experiment == "sampler":
         for row, (_, variant, _) in zip(rows, variants, strict=True):
-            row.update(_sampling_time(root, variant, seeds[0]))
+            row.update(_sampling_time(root, variant, seeds[0], earlier=out_dir / "sampler.json"))
         extra = ["sampler", "proposer_s_per_decision"]
     return write_table(
         out_dir,
@@ -142,10 +144,13 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
     )
 
 
-def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5) -> dict:
+def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5, *,
+                   earlier: Path | None = None) -> dict:  # fmt: skip
     """The job's sampler (``.hydra/config.yaml``) and the seconds its proposer (the job's
     first-stage artefact) takes for one decision of both AUVs of a held-out scene: K
-    candidates, the median of ``repeats`` timings on this machine's thread count."""
+    candidates, the median of ``repeats`` timings on this machine's thread count. Where the
+    first stage is not on this machine, the time an earlier report measured for the same
+    sampler (``earlier``: its ``sampler.json``, which the results store keeps), else NaN."""
     import time
 
     import torch
@@ -159,7 +164,13 @@ def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5) -> dic
     if not config.exists():
         return {"sampler": "", "proposer_s_per_decision": float("nan")}
     p = yaml.safe_load(config.read_text())["proposer"]
-    proposer = DiffusionProposer.load(first_stage_folder(root, MAIN_SEA, seed) / "proposer.pt")
+    label = f"{p['sampler']} {p['num_inference_steps']}"
+    stage = first_stage_folder(root, MAIN_SEA, seed)
+    if stage is None:
+        rows = json.loads(earlier.read_text())["rows"] if earlier and earlier.exists() else []
+        found = [r["proposer_s_per_decision"] for r in rows if r.get("sampler") == label]
+        return {"sampler": label, "proposer_s_per_decision": found[0] if found else math.nan}
+    proposer = DiffusionProposer.load(stage / "proposer.pt")
     proposer.configure_sampling(num_candidates=p["num_candidates"], sampler=p["sampler"],
                                 num_inference_steps=p["num_inference_steps"])  # fmt: skip
     env = make_history_env(MAIN_SEA, seed=100000, num_envs=1, history=p["history"])
@@ -170,7 +181,4 @@ def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5) -> dic
             start = time.perf_counter()
             proposer.sample(state)
             seconds.append(time.perf_counter() - start)
-    return {
-        "sampler": f"{p['sampler']} {p['num_inference_steps']}",
-        "proposer_s_per_decision": sorted(seconds)[repeats // 2],
-    }
+    return {"sampler": label, "proposer_s_per_decision": sorted(seconds)[repeats // 2]}
