@@ -163,3 +163,13 @@ def test_the_sampler_time_of_an_earlier_report_stands_where_the_first_stage_is_g
     write_report(tmp_path, ["sampler"], seeds=(0,), budget="paper")
     rows = json.loads((out / "sampler.json").read_text())["rows"]
     assert rows[1]["proposer_s_per_decision"] != rows[1]["proposer_s_per_decision"]  # NaN
+
+
+def test_fig7_reads_the_curves_of_finished_jobs_only(root):
+    """A running job has written part of its curve but no eval.csv: not in Fig. 7."""
+    (root / "jobs" / Job("sac", "es", "s_surface", 2).name / "eval.csv").unlink()
+    write_report(root, ["fig7"], seeds=(0, 1, 2), budget="quick")
+    curve = json.loads((root / "report/fig7/fig7.json").read_text())["rows"]
+    point = next(r for r in curve if r["sea_state"] == "es" and r["framework"] == "RL (SAC)"
+                 and r["metric"] == "eval/ssn" and r["frames"] == 200)  # fmt: skip
+    assert point["runs"] == 2 and point["value"] == pytest.approx(2.5)  # seeds 0 and 1

@@ -186,7 +186,8 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
     """Fig. 7: the evaluation learning curves (``eval_curve.csv``: the policy being trained,
     deterministic, on held-out scenes of its sea) of RL, Diffusion+RL and Diffusion+RL (LAC)
     in each sea; mean and band over seeds. The paper plots the return: here its per-decision
-    form, the cost per AUV-decision (lower is better)."""
+    form, the cost per AUV-decision (lower is better). Only finished jobs (``eval.csv``
+    written) are read, so the figure is the same wherever the results store is."""
     plt = _plt()
     fig, axes = plt.subplots(len(CURVE_KEYS), len(SEAS), figsize=(4.2 * len(SEAS), 9),
                              squeeze=False, sharex="col")  # fmt: skip
@@ -195,7 +196,8 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
         for framework in ("sac", "diffusion_rl", "diffusion_lac"):
             curves = [Path(root) / "jobs" / Job(framework, sea, "s_surface", s).name
                       / "eval_curve.csv" for s in seeds]  # fmt: skip
-            curves = [read_curve(c) for c in curves if c.exists()]
+            # finished jobs only: a running job's curve stops short (and is not stored)
+            curves = [read_curve(c) for c in curves if (c.parent / "eval.csv").exists()]
             for i, (key, label) in enumerate(CURVE_KEYS):
                 runs = [dict(zip(*c[key], strict=True)) for c in curves if key in c]
                 steps = sorted(set().union(*runs)) if runs else []
