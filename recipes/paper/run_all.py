@@ -88,40 +88,78 @@ def sync_store(root: Path, stored: Path, jobs: list[grid.Job]) -> None:
     log.info("store %s: %d files saved, %d restored", stored, len(saved), len(restored))
 
 
+def first_stage_built(root: Path, builder: grid.Job) -> bool:
+    """Whether the first stage ``builder`` (a proposer-alone job) builds is under
+    ``root/first_stage``, its proposer written (the artefact's folder name starts with its
+    sea, controller, rate model and seed)."""
+    pattern = f"{builder.sea}-{builder.controller}-*-seed{builder.seed}-*"
+    return any((f / "proposer.pt").is_file() for f in (root / "first_stage").glob(pattern))
+
+
 def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | None) -> list[str]:
     """Every job (:func:`run_job`) in the grid's order, ``cfg.parallel`` at a time: a free
-    core takes the first job whose first stage's builder (:func:`grid.first_stage_job`, when
-    it is among ``jobs``) has ended, so the other core goes on with ready jobs while a first
-    stage builds. With a ``stored`` results store, each job is stored as it finishes. Returns
-    the names of the jobs that failed."""
+    core takes the first ready job, so the other core goes on while a first stage builds. A
+    job is ready once the builder of its first stage (:func:`grid.first_stage_job`, when it is
+    among ``jobs``) has ended and the first stage is built; where that builder ended without
+    it (its job was restored from a results store, say) one of its jobs at a time runs, the
+    first to start building it; where that builder failed, its jobs fail unrun. With a
+    ``stored`` results store, each job is stored as it finishes. Returns the names of the
+    jobs that failed."""
     log.info("%d jobs (%s budget) under %s, %d at a time", len(jobs), cfg.budget, root,
              cfg.parallel)  # fmt: skip
     start, failed = time.perf_counter(), []
     waiting, running = list(jobs), {}
     unended = {job.name for job in jobs}
 
-    def ready(job: grid.Job) -> bool:
+    def blocked(job: grid.Job) -> str | None:
+        """Why ``job`` cannot start now: ``"wait"``, ``"failed"`` or ``None`` (ready)."""
         builder = grid.first_stage_job(job)
-        return builder is None or builder.name not in unended
+        if builder is None or first_stage_built(root, builder):
+            return None
+        if builder.name in unended:
+            return "wait"
+        if builder.name in failed:
+            return "failed"
+        building = any(grid.first_stage_job(other) == builder for other in running.values())
+        return "wait" if building else None
+
+    def ended(job: grid.Job, state: str, seconds: float) -> None:
+        unended.discard(job.name)
+        log.info("%-58s %s (%.0f s)", job.name, state, seconds)
+        if state.startswith("FAILED"):
+            failed.append(job.name)
+        elif stored is not None:
+            try:
+                store.save_finished(root, stored, [job])
+            except OSError:
+                log.exception("%s: storing its outputs in %s failed", job.name, stored)
 
     with ThreadPoolExecutor(max_workers=int(cfg.parallel)) as pool:
         while waiting or running:
+            for job in [job for job in waiting if blocked(job) == "failed"]:
+                waiting.remove(job)
+                builder = grid.first_stage_job(job).name
+                ended(job, f"FAILED (not run: {builder}, which builds its first stage, failed)",
+                      0.0)  # fmt: skip
             while len(running) < int(cfg.parallel):
-                job = next((job for job in waiting if ready(job)), None)
+                job = next((job for job in waiting if blocked(job) is None), None)
                 if job is None:
                     break
                 waiting.remove(job)
                 running[pool.submit(run_job, job, cfg, root)] = job
+            if not running:
+                if waiting:  # cannot happen: a builder has nothing to wait for
+                    raise RuntimeError(f"no job can start: {[j.name for j in waiting]}")
+                break
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in finished:
                 job = running.pop(future)
-                name, state, seconds = future.result()
-                unended.discard(name)
-                log.info("%-58s %s (%.0f s)", name, state, seconds)
-                if state.startswith("FAILED"):
-                    failed.append(name)
-                elif stored is not None:
-                    store.save_finished(root, stored, [job])
+                try:
+                    _, state, seconds = future.result()
+                except Exception as error:  # the job's process could not even be started
+                    log.exception("%s: not run", job.name)
+                    state, seconds = f"FAILED ({type(error).__name__}: {error})", 0.0
+                ended(job, state, seconds)
     log.info("jobs done in %.1f min", (time.perf_counter() - start) / 60)
     return failed
 
@@ -148,7 +186,7 @@ def main(cfg: DictConfig) -> None:
         for path in written:
             log.info("wrote %s", path)
         if stored is not None:  # what the report made from first stages alone (Fig. 5/6)
-            store.save_finished(root, stored, jobs)
+            store.save_finished(root, stored, jobs, report=True)
     if cfg.get("page"):
         page = write_results_page(root, cfg.page, seeds=seeds, jobs=jobs, experiments=experiments)
         log.info("wrote the results page %s", page)

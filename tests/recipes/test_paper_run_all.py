@@ -11,6 +11,7 @@ import os
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -105,6 +106,44 @@ def test_a_job_waits_for_its_first_stage_while_the_other_core_goes_on(tmp_path, 
     assert run_all.run_jobs([builder, user, sac], cfg, tmp_path, None) == []
     assert events.index(("start", user.name)) > events.index(("end", builder.name))
     assert {name for kind, name in events if kind == "end"} == {builder.name, user.name, sac.name}
+
+
+def test_a_first_stage_not_built_is_built_by_one_job_and_a_failed_builder_fails_its_jobs(
+    tmp_path, monkeypatch
+):
+    """The ves/pid builder ended (restored from a store) but its first stage is not on this
+    machine: its two jobs run one after the other (the first builds it). The es/pid builder
+    fails: its job fails unrun. A job whose process cannot start fails, the others run."""
+    run_all = _load_run_all()
+    restored = Job("diffusion", "ves", "pid", 0)
+    users = [Job("diffusion_rl", "ves", "pid", 0), Job("diffusion_lac", "ves", "pid", 0)]
+    broken, orphan = Job("diffusion", "es", "pid", 0), Job("diffusion_rl", "es", "pid", 0)
+    crashing, sac = Job("sac", "es", "smc", 0), Job("sac", "ves", "smc", 0)
+    events, lock = [], threading.Lock()
+
+    def fake_run_job(job, cfg, root):
+        with lock:
+            events.append(("start", job.name))
+        if job == crashing:
+            raise OSError("no space left on device")
+        if job == users[0]:  # slow enough for the other core to look for work meanwhile
+            time.sleep(0.5)
+        with lock:
+            events.append(("end", job.name))
+        if job == restored:
+            return job.name, "skipped (finished)", 0.0
+        if job == broken:
+            return job.name, "FAILED (exit 1; log x)", 1.0
+        return job.name, "finished", 1.0
+
+    monkeypatch.setattr(run_all, "run_job", fake_run_job)
+    cfg = OmegaConf.create({"budget": "quick", "frames": None, "parallel": 2})
+    jobs = [restored, *users, broken, orphan, crashing, sac]
+    failed = run_all.run_jobs(jobs, cfg, tmp_path, None)
+    assert sorted(failed) == sorted([broken.name, orphan.name, crashing.name])
+    assert ("start", orphan.name) not in events
+    assert events.index(("start", users[1].name)) > events.index(("end", users[0].name))
+    assert ("end", sac.name) in events
 
 
 def test_a_store_carries_finished_jobs_to_another_machine(tmp_path, monkeypatch):

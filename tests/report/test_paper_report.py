@@ -108,17 +108,21 @@ def test_fig5_6_is_drawn_again_from_stored_rollouts_where_the_first_stage_is_gon
     first, store_dir, second = tmp_path / "m1", tmp_path / "store", tmp_path / "m2"
     paths = [[[[[10.0 * s + k + t, 2.0 * t + auv, 5.0] for auv in range(2)] for t in range(9)]
               for k in range(5)] for s in range(3)]  # fmt: skip
-    rollouts = {"header": "h", "artefact": "ves-s_surface-x", "stages": ["a", "b", "c"],
-                "chunks": [], "paths_ned_m": paths}  # fmt: skip
+    rollouts = {"header": "h", "artefact": "/m1/first_stage/ves-s_surface-shannon-seed0-abc",
+                "stages": ["a", "b", "c"], "chunks": [], "paths_ned_m": paths}  # fmt: skip
     (first / "report" / "fig5_6").mkdir(parents=True)
     (first / "report" / "fig5_6" / "fig5_6.json").write_text(json.dumps(rollouts))
-    assert [p.name for p in store.save_finished(first, store_dir, [])] == ["fig5_6.json"]
+    assert store.save_finished(first, store_dir, []) == []  # not right after a report
+    assert [p.name for p in store.save_finished(first, store_dir, [], report=True)] == [
+        "fig5_6.json"
+    ]
     assert [p.name for p in store.restore_finished(store_dir, second, [])] == ["fig5_6.json"]
     out = second / "report" / "fig5_6"
     written = figures.fig5_6(second, out, [0], "h")
     assert sorted(p.name for p in written) == ["fig5.png", "fig5_6.json", "fig6.png"]
     assert all(p.stat().st_size > 1000 for p in written)
     assert json.loads((out / "fig5_6.json").read_text())["paths_ned_m"] == paths
+    assert figures.fig5_6(second, out, [1], "h") == []  # seed 0's rollouts are not seed 1's
     # without the stored rollouts and without the first stage there is nothing to draw
     assert figures.fig5_6(tmp_path / "m3", tmp_path / "m3" / "out", [0], "h") == []
 
@@ -150,11 +154,14 @@ def test_the_sampler_time_of_an_earlier_report_stands_where_the_first_stage_is_g
     write_report(tmp_path, ["sampler"], seeds=(0,), budget="paper")
     rows = json.loads((out / "sampler.json").read_text())["rows"]
     assert rows[1]["sampler"] == "ddim 10" and rows[1]["proposer_s_per_decision"] == 0.0042
+    assert rows[1]["timed"] == "by an earlier report"
     # the store saves the newer report's file over an older one, and restores it where missing
     store_dir = tmp_path / "store"
     (store_dir / "report" / "sampler").mkdir(parents=True)
     (store_dir / "report" / "sampler" / "sampler.json").write_text("{}")
-    store.save_finished(tmp_path, store_dir, [])
+    store.save_finished(tmp_path, store_dir, [])  # a sitting's start: the store's stays
+    assert (store_dir / "report/sampler/sampler.json").read_text() == "{}"
+    store.save_finished(tmp_path, store_dir, [], report=True)
     assert (store_dir / "report/sampler/sampler.json").read_text() == (
         out / "sampler.json"
     ).read_text()

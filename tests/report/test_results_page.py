@@ -35,9 +35,12 @@ def test_the_outcome_follows_the_gap_against_the_standard_error():
     assert compare((3.0, 1.5, 3), (2.0, 1.5, 3), higher=True) == "within noise"
     assert compare((2.0, 0.9, 3), (3.0, 0.9, 3), higher=False) == "holds"  # lower is better
     assert compare((3.0, 0.0, 1), (2.0, 0.0, 1), higher=True) == "within noise"  # one seed
+    assert compare((2.0, 1.5, 3), (3.0, 1.5, 3), higher=True) == "reversed within noise"
+    assert compare((2.0, 0.0, 1), (3.0, 0.0, 1), higher=True) == "reversed within noise"
     assert compare((3.0, 0.1, 3), (float("nan"), 0.0, 0), higher=True) == "missing"
     assert verdict(["holds", "within noise"]) == "partly"
     assert verdict(["reversed", "missing"]) == "not reproduced (1 of 2 comparisons ran)"
+    assert verdict(["reversed within noise", "within noise"]) == "inconclusive"
 
 
 def test_claims_are_judged_from_each_jobs_own_row(tmp_path):
@@ -57,6 +60,16 @@ def test_claims_are_judged_from_each_jobs_own_row(tmp_path):
     assert outcomes == ["holds"] * 4 + ["reversed"] * 2
     assert cost["verdict"] == "partly"
     assert "ves: Diffusion+RL 3 ± 0 vs RL 2.01 ± 0.01" in cost["comparisons"][4][1]
+    # seeds whose row lacks the metric are not counted: one value is one seed, no spread
+    for seed in (1, 2):
+        (tmp_path / "jobs" / Job("sac", "ideal", "s_surface", seed).name / "eval.csv").write_text(
+            "sea_state,policy,cost_mean\nideal,sac,nan\n"
+        )
+    first = judge(tmp_path, seeds)[_claim("Diffusion+RL and Diffusion+RL (LAC) reach a better")]
+    assert first["comparisons"][0] == (
+        "within noise",
+        "ideal: Diffusion+RL 1.01 ± 0.01 vs RL 2 ± 0",
+    )
     ssn = rows[_claim("... and serve more sensor nodes")]
     assert ssn["verdict"] == "reproduced"  # 5-7 nodes against SAC's 0, every sea
     # the claims whose jobs did not run say so
@@ -91,3 +104,33 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     # every claim has its verdict row, and an experiment without outputs says so
     assert text.count("| **not run yet** |") == len(CLAIMS)
     assert "Not in this report" in text
+
+
+def test_rank_returns_and_the_convergence_point_are_the_pages_own(tmp_path):
+    """Fig. 8's order is of returns (cost x decisions: CA4's episodes end early, so its return
+    beats CA3's though its cost per decision is worse); the convergence claim looks at the
+    first evaluation after frame 0 (at frame 0 nothing has trained)."""
+    for seed in (0, 1, 2):
+        folder = tmp_path / "jobs" / Job("diffusion_lac", "ves", "s_surface", seed).name
+        folder.mkdir(parents=True)
+        rows = ["sea_state,policy,cost_mean,decisions"]
+        for policy, cost, decisions in (("OA", 1.0, 1000), ("CA1", 1.2, 1000),
+                                        ("CA2", 1.4, 1000), ("CA3", 1.6, 1000),
+                                        ("CA4", 5.0, 100)):  # fmt: skip
+            rows.append(f"ves,{policy},{cost + 0.01 * seed},{decisions}")
+        (folder / "eval.csv").write_text("\n".join(rows) + "\n")
+    curve = [{"sea_state": sea, "framework": label, "metric": "eval/cost_mean", "frames": f,
+              "runs": 3, "value": value, "value_std": 0.01}
+             for sea in ("ideal", "es", "ves")
+             for label, at0, at25 in (("RL (SAC)", 20.0, 1.5), ("Diffusion+RL", 1.6, 2.0),
+                                      ("Diffusion+RL (LAC)", 1.6, 2.0))
+             for f, value in ((0, at0), (25000, at25))]  # fmt: skip
+    (tmp_path / "report" / "fig7").mkdir(parents=True)
+    (tmp_path / "report" / "fig7" / "fig7.json").write_text(json.dumps({"rows": curve}))
+    rows = judge(tmp_path, (0, 1, 2))
+    ranks = rows[_claim("The return falls monotonically")]["comparisons"]
+    assert [o for o, _ in ranks] == ["holds", "holds", "holds", "reversed"]
+    assert ranks[3][1] == "CA3 -1.61e+03 ± 10 vs CA4 -501 ± 1"
+    faster = rows[_claim("... and converge faster")]
+    assert [o for o, _ in faster["comparisons"]] == ["reversed"] * 6
+    assert faster["verdict"] == "not reproduced"

@@ -118,6 +118,10 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         if not data.exists():
             return []
         stored = json.loads(data.read_text())
+        if not Path(stored["artefact"]).name.startswith(f"{MAIN_SEA}-s_surface-") or (
+            f"-seed{seeds[0]}-" not in Path(stored["artefact"]).name
+        ):
+            return []  # another first stage's rollouts
         return [*_plot_fig5_6(stored["paths_ned_m"], stored["stages"], Path(out_dir)), data]
     proposer = DiffusionProposer.load(folder / "proposer.pt")
     values = json.loads((folder / "values.json").read_text())

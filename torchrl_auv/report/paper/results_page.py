@@ -24,7 +24,7 @@ import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
-from torchrl_auv.report.paper.claims import judge
+from torchrl_auv.report.paper.claims import OUTCOMES, judge
 from torchrl_auv.report.paper.grid import Job
 
 __all__ = ["SECTIONS", "write_results_page"]
@@ -140,10 +140,13 @@ def _compute_hours(root: Path, jobs: Sequence[Job]) -> tuple[float, int]:
         if not summary.exists():
             continue
         text = summary.read_text()
-        for pattern in (r"built in ([\d.]+) s", r"wall time this session \(s\): ([\d.e+]+)",
-                        r"evaluation wall time \(s\): ([\d.e+]+)"):  # fmt: skip
+        for pattern in (r"built in ([-+\d.eE]+) s", r"wall time this session \(s\): ([-+\d.eE]+)",
+                        r"evaluation wall time \(s\): ([-+\d.eE]+)"):  # fmt: skip
             found = re.search(pattern, text)
-            seconds += float(found.group(1)) if found else 0.0
+            try:
+                seconds += float(found.group(1)) if found else 0.0
+            except ValueError:  # a summary written by another version: not counted
+                continue
     return seconds / 3600.0, finished
 
 
@@ -160,8 +163,8 @@ def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int]) -> list[st
                   "of each job's sea"),
         ("jobs finished", f"{finished} of {len(jobs)}"),
         ("compute", f"{hours:.1f} h of one core, summed over the finished jobs' summaries "
-                    "(first-stage build, training of the last sitting, evaluation); two jobs "
-                    "at a time on 2 cores"),
+                    "(first-stage build, training of the last sitting, evaluation); "
+                    f"{run.get('config', {}).get('parallel', '?')} jobs at a time"),
         ("report written", f"{run.get('date', '?')} at commit `{run.get('commit', '?')}`"),
         ("command", f"`{run.get('command', '?')}`"),
         ("machine", f"{run.get('machine', '?')} {run.get('processor', '')}".strip()),
@@ -171,11 +174,10 @@ def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int]) -> list[st
 
 def _verdicts(rows: list[dict]) -> list[str]:
     lines = ["| claim of the paper | where | verdict | comparisons (holds / within noise / "
-             "reversed / not run) |", "|---|---|---|---|"]  # fmt: skip
+             "reversed within noise / reversed / not run) |", "|---|---|---|---|"]  # fmt: skip
     for row in rows:
         outcomes = [o for o, _ in row["comparisons"]]
-        counts = " / ".join(str(outcomes.count(o))
-                            for o in ("holds", "within noise", "reversed", "missing"))  # fmt: skip
+        counts = " / ".join(str(outcomes.count(o)) for o in OUTCOMES)
         lines.append(f"| {row['claim']} | {row['where']} | **{row['verdict']}** | {counts} |")
     return lines
 
@@ -250,10 +252,13 @@ def write_results_page(
         "",
         "How a verdict is reached (`torchrl_auv.report.paper.claims`): each comparison of "
         "means over seeds *holds* when it goes the paper's way by more than the standard error "
-        "of the difference, is *within noise* when it goes the paper's way by less (or with "
-        "one seed), and is *reversed* otherwise. A claim is *reproduced* when every comparison "
-        "that ran holds, *not reproduced* when every one is reversed, *partly* otherwise. "
-        "The comparisons and their numbers are listed at the end.",
+        "of the difference (one standard error: a lenient bar with three seeds), is *within "
+        "noise* when it goes the paper's way by less (or with one seed), *reversed within "
+        "noise* when it goes the other way by less, and *reversed* when it goes the other way "
+        "by more. A claim is *reproduced* when every comparison that ran holds, *not "
+        "reproduced* when none holds and one or more is reversed, *inconclusive* when none is "
+        "beyond the noise either way, *partly* otherwise. The comparisons and their numbers "
+        "are listed at the end.",
         "",
         "## Why our numbers and the paper's part",
         "",

@@ -127,17 +127,19 @@ def _copy_finished(source: Path, target: Path, jobs: Iterable[Job]) -> list[Path
                                      STORED_FILES, FINISHED_MARK)]  # fmt: skip
 
 
-def save_finished(root: str | Path, store: str | Path, jobs: Iterable[Job]) -> list[Path]:
+def save_finished(root: str | Path, store: str | Path, jobs: Iterable[Job], *,
+                  report: bool = False) -> list[Path]:  # fmt: skip
     """Copy the outputs (:data:`STORED_FILES`) of ``jobs`` finished under the run folder
     ``root`` into ``store`` (``store/jobs/<job.name>/``), each job once: a job already in the
     store is left as it is. Its ``eval.csv`` is copied last, so a copy cut short is not taken
     for a finished job. The records of the first stages built under ``root/first_stage`` go
-    to ``store/first_stage``, and :data:`REPORT_FILES` of the latest report under ``root`` to
-    ``store/report``. Returns the written paths."""
+    to ``store/first_stage``. ``report``: right after a report was written under ``root``,
+    its :data:`REPORT_FILES` go to ``store/report`` too, over older ones (at other times a
+    run folder's report may be older than the store's). Returns the written paths."""
     root, store = Path(root), Path(store)
     records = _copy_first_stages(root / "first_stage", store / "first_stage")
-    report = _copy_report_files(root, store, update=True)
-    return _copy_finished(root, store, jobs) + records + report
+    made = _copy_report_files(root, store, update=True) if report else []
+    return _copy_finished(root, store, jobs) + records + made
 
 
 def restore_finished(store: str | Path, root: str | Path, jobs: Iterable[Job]) -> list[Path]:
