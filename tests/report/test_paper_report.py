@@ -180,3 +180,17 @@ def test_fig7_reads_the_curves_of_finished_jobs_only(root):
     point = next(r for r in curve if r["sea_state"] == "es" and r["framework"] == "RL (SAC)"
                  and r["metric"] == "eval/ssn" and r["frames"] == 200)  # fmt: skip
     assert point["runs"] == 2 and point["value"] == pytest.approx(2.5)  # seeds 0 and 1
+
+
+def test_the_papers_rate_formula_inflates_the_experts_data(tmp_path):
+    """The rate-model table: the same expert on the same scenes delivers more data with the
+    paper's formula (10^SNR instead of 10^(SNR/10)) than with the Shannon rate."""
+    from torchrl_auv.report.paper.tables import rate_models
+
+    rate_models(tmp_path, "h", scenes=2, steps=150, seas=("ideal",))
+    rows = {
+        r["rate_model"]: r for r in json.loads((tmp_path / "rate_models.json").read_text())["rows"]
+    }
+    assert rows["shannon"]["sdr_mbit"] > 0
+    assert rows["paper"]["sdr_mbit"] > rows["shannon"]["sdr_mbit"]
+    assert rows["paper"]["paper sdr_mbit"] != rows["paper"]["paper sdr_mbit"]  # no ideal numbers

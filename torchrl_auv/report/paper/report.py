@@ -40,6 +40,10 @@ REPORTS: dict[str, Callable] = {
 }  # fmt: skip
 #: the fixed-schedule tracking table per budget: runs per cell and seconds per run
 TABLE3_FIXED = {"quick": (1, 20.0), "paper": (4, 300.0)}
+#: the rate-model table per budget: held-out scenes per sea and decisions per scene
+RATE_MODELS = {"quick": (2, 50), "paper": (4, 1000)}
+#: the experiments that run no job (their own simulations, in the report)
+STANDALONE = ("table3_fixed", "rate_models")
 
 
 def _commit() -> str:
@@ -66,13 +70,13 @@ def write_report(
     config: Mapping | None = None,
 ) -> list[Path]:
     """The figures and tables of ``experiments`` (keys of :data:`REPORTS` and
-    ``"table3_fixed"``) from the jobs under ``root``, in ``root/report/<experiment>/``, and
+    :data:`STANDALONE`) from the jobs under ``root``, in ``root/report/<experiment>/``, and
     ``root/report/run.json`` (budget, seeds, frames, date, commit, command, machine). Each
     table's first line states the budget, frames and seeds. Returns the written paths."""
-    unknown = [e for e in experiments if e not in REPORTS and e != "table3_fixed"]
+    unknown = [e for e in experiments if e not in REPORTS and e not in STANDALONE]
     if unknown:
         raise ValueError(f"experiments {unknown} are unknown; known: "
-                         f"{sorted([*REPORTS, 'table3_fixed'])}")  # fmt: skip
+                         f"{sorted([*REPORTS, *STANDALONE])}")  # fmt: skip
     root = Path(root)
     out = root / "report"
     header = (
@@ -87,6 +91,9 @@ def write_report(
         if experiment == "table3_fixed":
             runs, duration = TABLE3_FIXED[budget]
             written += tables.table3_fixed(folder, header, runs=runs, duration=duration)
+        elif experiment == "rate_models":
+            scenes, steps = RATE_MODELS[budget]
+            written += tables.rate_models(folder, header, scenes=scenes, steps=steps)
         else:
             written += REPORTS[experiment](root, folder, list(seeds), header)
     facts = {"budget": budget, "frames": frames, "seeds": list(seeds),

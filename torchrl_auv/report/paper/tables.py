@@ -98,6 +98,36 @@ def table3_fixed(out_dir: Path, header: str, *, runs: int, duration: float, seed
     return write_table(out_dir, "table3_fixed", rows, columns, header=note)
 
 
+def rate_models(out_dir: Path, header: str, *, scenes: int, steps: int,
+                seas: Sequence[str] = ("ideal", "es", "ves"),
+                seed: int = 100000) -> list[Path]:  # fmt: skip
+    """What the link-rate model does to the paper's metrics (a separate experiment, no
+    learning): the scripted expert with S-Surface on ``scenes`` held-out scenes (``seed``) of
+    each sea for ``steps`` decisions, with our Shannon rate (``env.rate_model=shannon``, the
+    presets') and with the paper's formula (``paper``); beside them the paper's Diffusion+RL
+    (LAC), S-Surface numbers of Table II."""
+    from torchrl_auv.envs import DataCollectionEnv
+    from torchrl_auv.training.evaluation import episode_stats, make_policy
+
+    rows = []
+    for sea in seas:
+        for rate_model in ("shannon", "paper"):
+            env = DataCollectionEnv(batch_size=[scenes], sea_state=sea, rate_model=rate_model,
+                                    seed=seed)  # fmt: skip
+            stats = episode_stats(env, make_policy("expert", env), steps)
+            published = TABLE2.get(("diffusion_lac", "s_surface", sea), {})
+            rows.append({"sea_state": sea, "rate_model": rate_model,
+                         **{k: float(stats[k]) for k in ("sdr_mbit", "ssn", "ec_w")},
+                         **{f"paper {k}": published.get(k, (math.nan,))[0]
+                            for k in ("sdr_mbit", "ssn", "ec_w")}})  # fmt: skip
+    columns = ["sea_state", "rate_model", "sdr_mbit", "paper sdr_mbit", "ssn", "paper ssn",
+               "ec_w", "paper ec_w"]  # fmt: skip
+    note = (f"{header}; the scripted expert (no learning), S-Surface, {scenes} held-out scenes "
+            f"x {steps} decisions per sea and rate model; the paper's columns: its Diffusion+RL "
+            "(LAC), S-Surface (Table II; it names no ideal-sea numbers)")  # fmt: skip
+    return write_table(out_dir, "rate_models", rows, columns, header=note)
+
+
 METRICS = ("cost_mean", "sdr_mbit", "ssn", "ec_w", "violation_rate", "terminated")
 
 
