@@ -72,7 +72,8 @@ def write_report(
     """The figures and tables of ``experiments`` (keys of :data:`REPORTS` and
     :data:`STANDALONE`) from the jobs under ``root``, in ``root/report/<experiment>/``, and
     ``root/report/run.json`` (budget, seeds, frames, date, commit, command, machine). Each
-    table's first line states the budget, frames and seeds. Returns the written paths."""
+    table's first line states the budget, frames and seeds (the :data:`STANDALONE` ones, which
+    train nothing: the budget and what they ran). Returns the written paths."""
     unknown = [e for e in experiments if e not in REPORTS and e not in STANDALONE]
     if unknown:
         raise ValueError(f"experiments {unknown} are unknown; known: "
@@ -90,10 +91,11 @@ def write_report(
         folder.mkdir(parents=True, exist_ok=True)
         if experiment == "table3_fixed":
             runs, duration = TABLE3_FIXED[budget]
-            written += tables.table3_fixed(folder, header, runs=runs, duration=duration)
+            written += tables.table3_fixed(folder, f"budget {budget}", runs=runs,
+                                           duration=duration)  # fmt: skip
         elif experiment == "rate_models":
             scenes, steps = RATE_MODELS[budget]
-            written += tables.rate_models(folder, header, scenes=scenes, steps=steps)
+            written += tables.rate_models(folder, f"budget {budget}", scenes=scenes, steps=steps)
         else:
             written += REPORTS[experiment](root, folder, list(seeds), header)
     facts = {"budget": budget, "frames": frames, "seeds": list(seeds),

@@ -85,11 +85,11 @@ REASONS = """\
   link-rate formula, B log2(1 + 10^SNR), which drops the /10 of the dB-to-linear conversion and
   so gives about ten times the Shannon rate at the same geometry (29 vs 291 kbit/s at 18 m;
   `torchrl_auv/physics/acoustics.py`). Our presets use the Shannon rate
-  (`env.rate_model=shannon`); `env.rate_model=paper` is the paper's formula. With it services
-  are ten times shorter, which changes SSN too (the scripted expert in ES, seed 0: SSN 13.4
-  with the Shannon rate, 20.8 with the paper's). Our SDR is data delivered per episode
-  (Mbit), so compare orderings, not magnitudes; EC and SSN depend on our scenes as well.
-  The rate-model table below shows the scripted expert under both.
+  (`env.rate_model=shannon`); `env.rate_model=paper` is the paper's formula. Over an episode
+  the factor is smaller, and it moves SSN as much as SDR: a node holds a finite amount of
+  data, so a faster link ends services sooner and the AUVs reach more nodes (the rate-model
+  table below: the scripted expert under both). Our SDR is data delivered per episode (Mbit),
+  so compare orderings, not magnitudes; EC and SSN depend on our scenes as well.
 - **ES and VES are ours.** The paper names its seas but does not define them
   (`torchrl_auv/physics/ocean/sea_states.py`): ES is a 0.5 m/s Gauss-Markov current with
   JONSWAP waves of Hs 4 m, Tp 10 s; VES a 1.0 m/s current with Hs 6 m, Tp 12 s; both with
