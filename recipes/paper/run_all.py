@@ -125,7 +125,8 @@ def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | N
 
     def ended(job: grid.Job, state: str, seconds: float) -> None:
         unended.discard(job.name)
-        log.info("%-58s %s (%.0f s)", job.name, state, seconds)
+        done = len(jobs) - len(unended)
+        log.info("[%d/%d] %-58s %s (%.0f s)", done, len(jobs), job.name, state, seconds)
         if state.startswith("FAILED"):
             failed.append(job.name)
         elif stored is not None:
