@@ -24,8 +24,10 @@
 
 from __future__ import annotations
 
+import datetime
 import logging
 import os
+import platform
 import subprocess
 import sys
 import time
@@ -110,6 +112,9 @@ def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | N
     start, failed = time.perf_counter(), []
     waiting, running = list(jobs), {}
     unended = {job.name for job in jobs}
+    now = lambda: datetime.datetime.now(datetime.timezone.utc).isoformat()  # noqa: E731
+    sitting = {"start": now(), "end": None, "jobs_finished": 0, "machine": platform.node(),
+               "parallel": int(cfg.parallel)}  # fmt: skip
 
     def blocked(job: grid.Job) -> str | None:
         """Why ``job`` cannot start now: ``"wait"``, ``"failed"`` or ``None`` (ready)."""
@@ -132,6 +137,9 @@ def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | N
         elif stored is not None:
             try:
                 store.save_finished(root, stored, [job])
+                if state.endswith("finished") and not state.startswith("skipped"):
+                    sitting.update(end=now(), jobs_finished=sitting["jobs_finished"] + 1)
+                    store.record_sitting(stored, sitting)
             except OSError:
                 log.exception("%s: storing its outputs in %s failed", job.name, stored)
 
@@ -189,7 +197,9 @@ def main(cfg: DictConfig) -> None:
         if stored is not None:  # what the report made from first stages alone (Fig. 5/6)
             store.save_finished(root, stored, jobs, report=True)
     if cfg.get("page"):
-        page = write_results_page(root, cfg.page, seeds=seeds, jobs=jobs, experiments=experiments)
+        sittings = store.read_sittings(stored) if stored else []
+        page = write_results_page(root, cfg.page, seeds=seeds, jobs=jobs, experiments=experiments,
+                                  sittings=sittings)  # fmt: skip
         log.info("wrote the results page %s", page)
     if failed:
         log.error("%d jobs failed: %s", len(failed), ", ".join(failed))

@@ -21,6 +21,7 @@ from omegaconf import OmegaConf
 from torchrl_auv.report.paper.figures import fig4
 from torchrl_auv.report.paper.grid import EXPERIMENTS, Job, grid
 from torchrl_auv.report.paper.output import first_stage_folder
+from torchrl_auv.report.paper.store import read_sittings
 from torchrl_auv.training import check_choices, check_config
 
 REPO = Path(__file__).resolve().parents[2]
@@ -179,7 +180,11 @@ def test_a_store_carries_finished_jobs_to_another_machine(tmp_path, monkeypatch)
     stored = sorted(p.relative_to(store).as_posix() for p in store.rglob("*") if p.is_file())
     assert stored == [f"first_stage/{stage.name}/{name}"
                       for name in ("metrics.json", "pretrain_loss.csv", "values.json")] + [
-        f"jobs/{done.name}/eval.csv", f"jobs/{done.name}/train_curve.csv"]  # fmt: skip
+        f"jobs/{done.name}/eval.csv", f"jobs/{done.name}/train_curve.csv",
+        "sittings.json"]  # fmt: skip
+    # the sitting is recorded: the one job it finished (the failed one does not count)
+    (sitting,) = read_sittings(store)
+    assert sitting["jobs_finished"] == 1 and sitting["end"] >= sitting["start"]
     command = [sys.executable, str(RECIPES / "paper" / "run_all.py"), "budget=quick",
                "seeds=[0]", "experiments=[fig7]", "jobs=false", "report=false",
                f"run_root={second}", f"store={store}"]  # fmt: skip
@@ -196,6 +201,7 @@ def test_a_store_carries_finished_jobs_to_another_machine(tmp_path, monkeypatch)
     rows = json.loads((tmp_path / "fig4" / "fig4.json").read_text())["rows"]
     assert rows[0]["sea_state"] == "ideal" and rows[0]["heldout_loss"] == 0.7
     assert run_all.run_jobs([done, later], cfg, second, store) == []
+    assert [s["jobs_finished"] for s in read_sittings(store)] == [1, 1]
     assert not (second / "jobs" / done.name / "argv.txt").exists()  # skipped, not run again
     assert (store / "jobs" / later.name / "eval.csv").exists()
 

@@ -93,13 +93,18 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     (report / "run.json").write_text(json.dumps(
         {"budget": "paper", "frames": 50000, "commit": "abc1234", "command": "run_all.py x",
          "date": "2026-12-04", "machine": "Linux"}))  # fmt: skip
-    write_results_page(root, page, seeds=[0], jobs=jobs)
+    sittings = [{"start": "2026-12-04T19:00:00+00:00", "end": "2026-12-04T20:30:00+00:00",
+                 "jobs_finished": 3},
+                {"start": "2026-12-05T09:00:00+00:00", "end": "2026-12-05T09:45:00+00:00",
+                 "jobs_finished": 1}]  # fmt: skip
+    write_results_page(root, page, seeds=[0], jobs=jobs, sittings=sittings)
     text = page.read_text()
     assert (tmp_path / "docs" / "results" / "fig7.png").read_bytes() == b"\x89PNG figure"
     assert "![Fig. 7: learning curves](results/fig7.png)" in text
     assert "*budget paper, seeds [0]*" in text and "| LAC | – |" in text
     assert "nan" not in text
     assert "**1 of 2**" in text and "| jobs finished | 1 of 2 |" in text
+    assert "| wall time | 2.2 h over 2 sittings" in text and "4 jobs finished in them" in text
     assert "1.5 h of one core" in text and "`abc1234`" in text and "50,000 frames" in text
     # every claim has its verdict row, and an experiment without outputs says so
     assert text.count("| **not run yet** |") == len(CLAIMS)

@@ -17,6 +17,7 @@ Examples:
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
 import re
@@ -155,7 +156,21 @@ def _compute_hours(root: Path, jobs: Sequence[Job]) -> tuple[float, int]:
     return seconds / 3600.0, finished
 
 
-def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int]) -> list[str]:
+def _wall_time(sittings: Sequence[dict]) -> str:
+    """The sittings' wall time: each from its start to its last finished job."""
+    if not sittings:
+        return "not recorded (no results store)"
+    hours = sum((datetime.datetime.fromisoformat(s["end"])
+                 - datetime.datetime.fromisoformat(s["start"])).total_seconds()
+                for s in sittings if s.get("end")) / 3600.0  # fmt: skip
+    finished = sum(s.get("jobs_finished", 0) for s in sittings)
+    return (f"{hours:.1f} h over {len(sittings)} sittings (each from its start to its last "
+            f"finished job; {finished} jobs finished in them, the rest before the record "
+            "began)")  # fmt: skip
+
+
+def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int],
+               sittings: Sequence[dict]) -> list[str]:  # fmt: skip
     path = root / "report" / "run.json"
     run = json.loads(path.read_text()) if path.exists() else {}
     hours, finished = _compute_hours(root, jobs)
@@ -170,6 +185,7 @@ def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int]) -> list[st
         ("compute", f"{hours:.1f} h of one core, summed over the finished jobs' summaries "
                     "(first-stage build, training of the last sitting, evaluation); "
                     f"{run.get('config', {}).get('parallel', '?')} jobs at a time"),
+        ("wall time", _wall_time(sittings)),
         ("report written", f"{run.get('date', '?')} at commit `{run.get('commit', '?')}`"),
         ("command", f"`{run.get('command', '?')}`"),
         ("machine", f"{run.get('machine', '?')} {run.get('processor', '')}".strip()),
@@ -226,10 +242,13 @@ def write_results_page(
     seeds: Sequence[int],
     jobs: Sequence[Job],
     experiments: Sequence[str] = tuple(SECTIONS),
+    sittings: Sequence[dict] = (),
 ) -> Path:
     """Write the results page ``page`` from the run folder ``root`` (its jobs and its
-    ``report/``; ``jobs``: the grid's, to count the finished ones), copying the report's
-    figures into ``<page folder>/results/``. Returns the page's path."""
+    ``report/``; ``jobs``: the grid's, to count the finished ones; ``sittings``: the results
+    store's record of them, :func:`~torchrl_auv.report.paper.store.read_sittings`, for the
+    wall time), copying the report's figures into ``<page folder>/results/``. Returns the
+    page's path."""
     root, page = Path(root), Path(page)
     page.parent.mkdir(parents=True, exist_ok=True)
     figures = page.parent / page.stem
@@ -249,7 +268,7 @@ def write_results_page(
         "",
         "## The run",
         "",
-        *_run_facts(root, jobs, seeds),
+        *_run_facts(root, jobs, seeds, sittings),
         "",
         "## Verdicts",
         "",

@@ -32,6 +32,8 @@ Examples:
 
 from __future__ import annotations
 
+import json
+import os
 import shutil
 from collections.abc import Iterable
 from pathlib import Path
@@ -43,7 +45,10 @@ __all__ = [
     "FIRST_STAGE_FILES",
     "RECORDS",
     "REPORT_FILES",
+    "SITTINGS",
     "STORED_FILES",
+    "read_sittings",
+    "record_sitting",
     "restore_finished",
     "save_finished",
 ]
@@ -70,6 +75,9 @@ FIRST_STAGE_FILES = ("pretrain_loss.csv", "metrics.json", "values.json")
 
 #: Where the restored first-stage records go under a run folder.
 RECORDS = "first_stage_records"
+
+#: The store's record of the grid's sittings (:func:`record_sitting`).
+SITTINGS = "sittings.json"
 
 #: Report outputs made from a first stage alone, kept so that a machine without it can make
 #: them again: Fig. 5/6's rolled-out candidates (about 30 kB) and the sampler ablation's
@@ -150,3 +158,23 @@ def restore_finished(store: str | Path, root: str | Path, jobs: Iterable[Job]) -
     records = _copy_first_stages(store / "first_stage", root / RECORDS)
     report = _copy_report_files(store, root, update=False)
     return _copy_finished(store, root, jobs) + records + report
+
+
+def read_sittings(store: str | Path) -> list[dict]:
+    """The sittings :func:`record_sitting` recorded in ``store`` (none: ``[]``)."""
+    path = Path(store) / SITTINGS
+    return json.loads(path.read_text()) if path.exists() else []
+
+
+def record_sitting(store: str | Path, sitting: dict) -> None:
+    """Record (or update, by its ``"start"``) one sitting of the grid in ``store``: when it
+    started, when its last job ended, how many jobs it finished, on what machine. Written
+    whole to a temporary file, then moved over the record, so a sitting killed mid-write
+    leaves the previous record."""
+    path = Path(store) / SITTINGS
+    sittings = [s for s in read_sittings(store) if s.get("start") != sitting["start"]]
+    sittings = sorted([*sittings, dict(sitting)], key=lambda s: s["start"])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_suffix(".partial")
+    partial.write_text(json.dumps(sittings, indent=1) + "\n")
+    os.replace(partial, path)
