@@ -164,7 +164,8 @@ def _wall_time(sittings: Sequence[dict]) -> str:
                  - datetime.datetime.fromisoformat(s["start"])).total_seconds()
                 for s in sittings if s.get("end")) / 3600.0  # fmt: skip
     finished = sum(s.get("jobs_finished", 0) for s in sittings)
-    return (f"{hours:.1f} h over {len(sittings)} sittings (each from its start to its last "
+    plural = "s" if len(sittings) != 1 else ""
+    return (f"{hours:.1f} h over {len(sittings)} sitting{plural} (each from its start to its last "
             f"finished job; {finished} jobs finished in them, the rest before the record "
             "began)")  # fmt: skip
 
