@@ -38,6 +38,7 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 
 from torchrl_auv.report.paper import grid, store, write_report
+from torchrl_auv.report.paper.output import first_stage_folder
 from torchrl_auv.report.paper.results_page import write_results_page
 
 HERE = Path(__file__).resolve().parent
@@ -90,14 +91,6 @@ def sync_store(root: Path, stored: Path, jobs: list[grid.Job]) -> None:
     log.info("store %s: %d files saved, %d restored", stored, len(saved), len(restored))
 
 
-def first_stage_built(root: Path, builder: grid.Job) -> bool:
-    """Whether the first stage ``builder`` (a proposer-alone job) builds is under
-    ``root/first_stage``, its proposer written (the artefact's folder name starts with its
-    sea, controller, rate model and seed)."""
-    pattern = f"{builder.sea}-{builder.controller}-*-seed{builder.seed}-*"
-    return any((f / "proposer.pt").is_file() for f in (root / "first_stage").glob(pattern))
-
-
 def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | None) -> list[str]:
     """Every job (:func:`run_job`) in the grid's order, ``cfg.parallel`` at a time: a free
     core takes the first ready job, so the other core goes on while a first stage builds. A
@@ -119,7 +112,9 @@ def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | N
     def blocked(job: grid.Job) -> str | None:
         """Why ``job`` cannot start now: ``"wait"``, ``"failed"`` or ``None`` (ready)."""
         builder = grid.first_stage_job(job)
-        if builder is None or first_stage_built(root, builder):
+        if builder is None or first_stage_folder(
+            root, builder.sea, builder.seed, controller=builder.controller
+        ):
             return None
         if builder.name in unended:
             return "wait"

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Sequence
+from fnmatch import fnmatch
 from pathlib import Path
 
 import torch
@@ -25,7 +26,13 @@ from torchrl_auv.report.paper.grid import (
     SEAS,
     Job,
 )
-from torchrl_auv.report.paper.output import first_stage_folder, job_rows, mean_std, write_table
+from torchrl_auv.report.paper.output import (
+    first_stage_folder,
+    first_stage_pattern,
+    job_rows,
+    mean_std,
+    write_table,
+)
 from torchrl_auv.report.paper.published import FIG8_RETURN_E3, FIG9
 from torchrl_auv.report.paper.tables import LABELS
 
@@ -118,9 +125,7 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         if not data.exists():
             return []
         stored = json.loads(data.read_text())
-        if not Path(stored["artefact"]).name.startswith(f"{MAIN_SEA}-s_surface-") or (
-            f"-seed{seeds[0]}-" not in Path(stored["artefact"]).name
-        ):
+        if not fnmatch(Path(stored["artefact"]).name, first_stage_pattern(MAIN_SEA, seeds[0])):
             return []  # another first stage's rollouts
         return [*_plot_fig5_6(stored["paths_ned_m"], stored["stages"], Path(out_dir)), data]
     proposer = DiffusionProposer.load(folder / "proposer.pt")

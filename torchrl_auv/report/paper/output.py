@@ -27,15 +27,29 @@ from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.store import RECORDS
 from torchrl_auv.report.sweeps import parse_number
 
-__all__ = ["first_stage_folder", "job_rows", "mean_std", "read_eval", "write_table"]
+__all__ = [
+    "first_stage_folder",
+    "first_stage_pattern",
+    "job_rows",
+    "mean_std",
+    "read_eval",
+    "write_table",
+]
 
 
-def first_stage_folder(root: Path, sea: str, seed: int, *, records: bool = False) -> Path | None:
-    """The built first stage of (``sea``, S-Surface, ``seed``) under ``root/first_stage``
-    (the grid's runs share it), ``None`` when none is built. ``records``: else its record
-    restored from a results store (``root/first_stage_records``, its training losses
-    without the proposer, :mod:`~torchrl_auv.report.paper.store`)."""
-    pattern = f"{sea}-s_surface-*-seed{seed}-*"
+def first_stage_pattern(sea: str, seed: int, controller: str = "s_surface") -> str:
+    """The glob pattern of the artefact folders of (``sea``, ``controller``, ``seed``)'s first
+    stage (``<sea>-<controller>-<rate model>-seed<seed>-<hash>``, any rate model)."""
+    return f"{sea}-{controller}-*-seed{seed}-*"
+
+
+def first_stage_folder(root: Path, sea: str, seed: int, *, controller: str = "s_surface",
+                       records: bool = False) -> Path | None:  # fmt: skip
+    """The built first stage of (``sea``, ``controller``, ``seed``) under
+    ``root/first_stage`` (the grid's runs share it), ``None`` when none is built.
+    ``records``: else its record restored from a results store (``root/first_stage_records``,
+    its training losses without the proposer, :mod:`~torchrl_auv.report.paper.store`)."""
+    pattern = first_stage_pattern(sea, seed, controller)
     found = sorted((Path(root) / "first_stage").glob(pattern))
     found = [f for f in found if (f / "proposer.pt").exists()]
     if not found and records:
