@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import statistics
 
 import pytest
 
 from torchrl_auv.report.paper import figures, store, write_report
+from torchrl_auv.report.paper.figures import pool_traces, tenth_means
 from torchrl_auv.report.paper.grid import Job, experiment_jobs
 
 POLICIES = ("diffusion_rl", "diffusion_lac", "sac", "diffusion", "OA", "CA1", "CA2", "CA3",
@@ -194,3 +196,16 @@ def test_the_papers_rate_formula_inflates_the_experts_data(tmp_path):
     assert rows["shannon"]["sdr_mbit"] > 0
     assert rows["paper"]["sdr_mbit"] > rows["shannon"]["sdr_mbit"]
     assert rows["paper"]["paper sdr_mbit"] != rows["paper"]["paper sdr_mbit"]  # no ideal numbers
+
+
+def test_pooled_traces_weigh_every_running_episode():
+    """Seed 0's 3 episodes at 1.0, seed 1's one episode at 5.0 (ended after decision 0): the
+    pooled mean is (3 x 1 + 5) / 4 = 2 at decision 0 (not the seeds' (1 + 5) / 2 = 3), its
+    spread the episodes' about it, and seed 0 alone after; nothing where none runs."""
+    seed0 = {"mean": [1.0, 1.0, math.nan], "std": [0.0, 0.0, math.nan], "episodes": [3, 3, 0]}
+    seed1 = {"mean": [5.0], "std": [0.0], "episodes": [1]}
+    pooled = pool_traces([seed0, seed1])
+    assert pooled["mean"][:2] == [2.0, 1.0] and math.isnan(pooled["mean"][2])
+    assert pooled["std"][0] == pytest.approx(math.sqrt((3 * 1.0 + 9.0) / 4))
+    assert pooled["episodes"] == [4.0, 3.0, 0.0]
+    assert tenth_means(pooled) == (2.0, 1.0)

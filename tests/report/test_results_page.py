@@ -139,3 +139,31 @@ def test_rank_returns_and_the_convergence_point_are_the_pages_own(tmp_path):
     faster = rows[_claim("... and converge faster")]
     assert [o for o, _ in faster["comparisons"]] == ["reversed"] * 6
     assert faster["verdict"] == "not reproduced"
+
+
+def test_the_contraction_ratio_weighs_each_decision_by_its_running_episodes(tmp_path):
+    """Fig. 10's ratio (last tenth over first tenth of the Lyapunov trace) pools the episodes
+    still running: a late decision of one surviving episode weighs 1/8 of a decision of all
+    eight, and decisions after every episode ended (no value) are not part of the trace."""
+
+    def trace(variant, seed, rows):
+        folder = tmp_path / "jobs" / Job("diffusion_lac", "ves", "s_surface", seed, variant).name
+        folder.mkdir(parents=True)
+        lines = ["decision,mean,std,episodes"]
+        lines += [f"{i},{mean},0.0,{episodes}" for i, (mean, episodes) in enumerate(rows)]
+        (folder / "lyapunov_trace.csv").write_text("\n".join(lines) + "\n")
+
+    middle = [(5.0, 8)] * 16  # 20 decisions with episodes running: a tenth is 2
+    for seed in (0, 1, 2):
+        # alpha 0.1: last tenth (2 x 8 + 20 x 1) / 9 = 4 over 10: 0.4 (not (2 + 20) / 2 / 10),
+        # then two decisions with no episode left
+        trace(
+            "fixed-softplus-alpha0.1",
+            seed,
+            [(10.0, 8)] * 2 + middle + [(2.0, 8), (20.0, 1), ("nan", 0), ("nan", 0)],
+        )
+        # alpha 0.05: (8 x 8 + 8 x 8) / 16 = 8 over 10: 0.8
+        trace("fixed-softplus-alpha0.05", seed, [(10.0, 8)] * 2 + middle + [(8.0, 8)] * 2)
+    rows = judge(tmp_path, (0, 1, 2))
+    pairs = rows[_claim("A larger stability weight alpha contracts")]["comparisons"]
+    assert pairs[0] == ("holds", "softplus-alpha0.1 0.4 ± 0 vs softplus-alpha0.05 0.8 ± 0")

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
 
-from torchrl_auv.report.paper.figures import lyapunov_trace
+from torchrl_auv.report.paper.figures import lyapunov_trace, tenth_means
 from torchrl_auv.report.paper.grid import (
     ALPHAS,
     CONTROLLERS,
@@ -289,16 +289,14 @@ def _oa_best(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
 
 def _contraction_ratio(root: Path, seeds: Sequence[int], variant: str) -> Stat:
     """The Lyapunov value's mean over the last tenth of the held-out episodes over its mean
-    over the first tenth (lower: contracts more), per seed (``lyapunov_trace.csv``)."""
+    over the first tenth (lower: contracts more), per seed (``lyapunov_trace.csv``; the
+    decisions weighed by their episodes running, :func:`tenth_means`)."""
     ratios = []
     for seed in seeds:
         trace = lyapunov_trace(root, Job("diffusion_lac", MAIN_SEA, "s_surface", seed, variant))
-        if trace is None or not trace["mean"]:
-            continue
-        tenth = max(1, len(trace["mean"]) // 10)
-        first, last = trace["mean"][:tenth], trace["mean"][-tenth:]
-        if sum(first) > 0:
-            ratios.append((sum(last) / len(last)) / (sum(first) / len(first)))
+        first, last = (math.nan, math.nan) if trace is None else tenth_means(trace)
+        if first > 0:
+            ratios.append(last / first)
     mean, std = mean_std(ratios)
     return mean, std, len(ratios)
 

@@ -36,7 +36,16 @@ from torchrl_auv.report.paper.output import (
 from torchrl_auv.report.paper.published import FIG8_RETURN_E3, FIG9
 from torchrl_auv.report.paper.tables import LABELS
 
-__all__ = ["fig4", "fig5_6", "fig7", "fig8_9", "fig10_11", "lyapunov_trace"]
+__all__ = [
+    "fig4",
+    "fig5_6",
+    "fig7",
+    "fig8_9",
+    "fig10_11",
+    "lyapunov_trace",
+    "pool_traces",
+    "tenth_means",
+]
 
 
 def _plt():
@@ -303,12 +312,45 @@ def lyapunov_trace(root: Path, job: Job) -> dict[str, list[float]] | None:
     return out
 
 
+def pool_traces(traces: Sequence[dict[str, list[float]]]) -> dict[str, list[float]]:
+    """Traces of :func:`lyapunov_trace` (e.g. one per seed) as one: per decision, the mean and
+    std over every episode still running in any of them, and their number; a trace shorter
+    than the longest counts no episode beyond its end; NaN where none runs."""
+    out = {"mean": [], "std": [], "episodes": []}
+    for i in range(max((len(t["mean"]) for t in traces), default=0)):
+        parts = [(t["mean"][i], t["std"][i], t["episodes"][i]) for t in traces
+                 if i < len(t["mean"]) and t["episodes"][i] > 0]  # fmt: skip
+        count = sum(n for _, _, n in parts)
+        mean = sum(m * n for m, _, n in parts) / count if count else math.nan
+        square = sum(n * (s**2 + (m - mean) ** 2) for m, s, n in parts)
+        out["mean"].append(mean)
+        out["std"].append(math.sqrt(square / count) if count else math.nan)
+        out["episodes"].append(float(count))
+    return out
+
+
+def tenth_means(trace: dict[str, list[float]]) -> tuple[float, float]:
+    """The mean of ``trace`` (:func:`lyapunov_trace` or :func:`pool_traces`) over its first
+    and over its last tenth of the decisions with an episode running, each decision weighed
+    by how many (episodes that end early leave fewer behind); NaN for an empty trace."""
+    running = [(m, n) for m, n in zip(trace["mean"], trace["episodes"], strict=True) if n > 0]
+    if not running:
+        return math.nan, math.nan
+    tenth = max(1, len(running) // 10)
+
+    def pooled(part):
+        return sum(m * n for m, n in part) / sum(n for _, n in part)
+
+    return pooled(running[:tenth]), pooled(running[-tenth:])
+
+
 def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
              experiment: str) -> list[Path]:  # fmt: skip
     """Fig. 10 (``experiment="fig10"``: the weight alpha) or Fig. 11 (``"fig11"``: the form):
     the executed candidate's Lyapunov value along held-out episodes (``lyapunov_trace.csv``
-    of each job), the mean over every episode of every seed and a ± one std band (the
-    episodes' spread pooled with the seeds' means)."""
+    of each job), per decision the mean over every episode of every seed still running and a
+    ± one std band (:func:`pool_traces`); the table's first and last tenth by
+    :func:`tenth_means`."""
     plt = _plt()
     variants = ([(f"alpha {a}", FIXED_FORM, a) for a in ALPHAS] if experiment == "fig10"
                 else [(f"form {f}", f, FIXED_ALPHA) for f in FORMS])  # fmt: skip
@@ -320,18 +362,15 @@ def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
         traces = [t for t in traces if t is not None]
         if not traces:
             continue
-        length = min(len(t["mean"]) for t in traces)
-        mean = [sum(t["mean"][i] for t in traces) / len(traces) for i in range(length)]
-        spread = [math.sqrt(sum(t["std"][i] ** 2 + (t["mean"][i] - mean[i]) ** 2
-                                for t in traces) / len(traces)) for i in range(length)]  # fmt: skip
+        pooled = pool_traces(traces)
+        mean, spread, length = pooled["mean"], pooled["std"], len(pooled["mean"])
         (line,) = ax.plot(range(length), mean, label=label)
         ax.fill_between(range(length), [m - s for m, s in zip(mean, spread, strict=True)],
                         [m + s for m, s in zip(mean, spread, strict=True)],
                         color=line.get_color(), alpha=0.15)  # fmt: skip
-        first, last = mean[: max(1, length // 10)], mean[-max(1, length // 10) :]
+        first, last = tenth_means(pooled)
         rows.append({"variant": label, "runs": len(traces), "decisions": length,
-                     "L_first_tenth": sum(first) / len(first),
-                     "L_last_tenth": sum(last) / len(last)})  # fmt: skip
+                     "L_first_tenth": first, "L_last_tenth": last})  # fmt: skip
     ax.set_xlabel("decision")
     ax.set_ylabel("L(s, a) of the executed action")
     ax.legend(fontsize="small")
