@@ -54,3 +54,23 @@ def test_train_runs_the_recipe_from_any_folder(tmp_path):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
     assert "- frames: 200" in (run_dir / "summary.md").read_text()
+
+
+def test_train_help_names_the_frameworks_presets_and_sweeps_it_takes():
+    """``train --help`` lists this script's choices, read here from the recipes folder, and
+    not the other scripts' configs (Hydra's own list named every folder of recipes/)."""
+    done = subprocess.run(
+        [sys.executable, str(recipes_dir() / "train.py"), "framework=sac", "preset=quick",
+         "--help"], env={**os.environ, "OMP_NUM_THREADS": "1"}, capture_output=True, text=True,
+        timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    choices, config = done.stdout.split("== Config", 1)
+    frameworks = sorted(p.stem for p in (recipes_dir() / "framework").glob("*.yaml"))
+    presets = sorted(p.stem for p in (recipes_dir() / "preset").glob("*.yaml"))
+    sweeps = [p.stem for p in (recipes_dir() / "sweeps").glob("*.yaml") if p.stem[0] != "_"]
+    assert f"framework={'|'.join(sorted(frameworks, key=choices.index))}" in choices
+    assert f"preset={'|'.join(sorted(presets, key=choices.index))}" in choices
+    assert all(f" {name}" in choices for name in sweeps)
+    assert "config: main" not in done.stdout and "wandb_sweeps" not in done.stdout
+    assert "run_dir: ${run_root}/sac/" in config  # the chosen framework's own config
