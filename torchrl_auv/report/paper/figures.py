@@ -203,30 +203,36 @@ CURVE_KEYS = (("eval/cost_mean", "cost per AUV-decision"), ("eval/sdr_mbit", "SD
 def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
     """Fig. 7: the evaluation learning curves (``eval_curve.csv``: the policy being trained,
     deterministic, on held-out scenes of its sea) of RL, Diffusion+RL and Diffusion+RL (LAC)
-    in each sea; mean and band over seeds. The paper plots the return: here its per-decision
-    form, the cost per AUV-decision (lower is better). Only finished jobs (``eval.csv``
-    written) are read, so the figure is the same wherever the results store is."""
+    in each sea; mean and band over seeds, a marker per evaluation, the runs per line in the
+    legend, "not run yet" on a panel without any. The paper plots the return: here its
+    per-decision form, the cost per AUV-decision (lower is better). Only finished jobs
+    (``eval.csv`` written) are read, so the figure is the same wherever the results store
+    is."""
     plt = _plt()
     fig, axes = plt.subplots(len(CURVE_KEYS), len(SEAS), figsize=(4.2 * len(SEAS), 9),
                              squeeze=False, sharex="col")  # fmt: skip
+    colours = dict(zip(("sac", "diffusion_rl", "diffusion_lac"), ("C0", "C1", "C2"), strict=True))
     rows = []
     for j, sea in enumerate(SEAS):
-        for framework in ("sac", "diffusion_rl", "diffusion_lac"):
+        for framework, colour in colours.items():
             curves = [Path(root) / "jobs" / Job(framework, sea, "s_surface", s).name
                       / "eval_curve.csv" for s in seeds]  # fmt: skip
             # finished jobs only: a running job's curve stops short (and is not stored)
             curves = [read_curve(c) for c in curves if (c.parent / "eval.csv").exists()]
             for i, (key, label) in enumerate(CURVE_KEYS):
                 runs = [dict(zip(*c[key], strict=True)) for c in curves if key in c]
-                steps = sorted(set().union(*runs)) if runs else []
+                axes[i, 0].set_ylabel(label)
+                if not runs:
+                    continue
+                steps = sorted(set().union(*runs))
                 stats = [mean_std([r[s] for r in runs if s in r]) for s in steps]
                 mean = [m for m, _ in stats]
                 std = [d for _, d in stats]
-                (line,) = axes[i, j].plot(steps, mean, label=LABELS[framework])
+                name = f"{LABELS[framework]} ({len(runs)} of {len(seeds)})"
+                axes[i, j].plot(steps, mean, marker="o", markersize=3, color=colour, label=name)
                 axes[i, j].fill_between(steps, [m - d for m, d in zip(mean, std, strict=True)],
                                         [m + d for m, d in zip(mean, std, strict=True)],
-                                        color=line.get_color(), alpha=0.2)  # fmt: skip
-                axes[i, 0].set_ylabel(label)
+                                        color=colour, alpha=0.2)  # fmt: skip
                 rows += [
                     {
                         "sea_state": sea,
@@ -241,7 +247,14 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
                 ]
         axes[0, j].set_title(sea)
         axes[-1, j].set_xlabel("frames")
-    axes[0, 0].legend(fontsize="small")
+        if axes[0, j].lines:
+            axes[0, j].legend(fontsize="small", title="runs of the seeds", title_fontsize="small")
+        for ax in axes[:, j]:
+            if not ax.lines:
+                ax.set_xticks([])
+                ax.set_yticks([])
+                ax.text(0.5, 0.5, "not run yet", ha="center", va="center",
+                        transform=ax.transAxes, color="0.5")  # fmt: skip
     paths = [_save(fig, Path(out_dir) / "fig7.png")]
     return paths + write_table(
         out_dir,
