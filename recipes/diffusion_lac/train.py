@@ -69,12 +69,13 @@ def main(cfg: DictConfig) -> None:
     facts["Lyapunov spec at the end"] = f"{spec.form}, alpha {spec.alpha:g}"
     facts["advisor consultations"] = advising.trigger.consultations  # resumed sessions too
     facts["advisor failures"] = advising.trigger.failure_summary()  # also said on the console
-    policies = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor,
-                                                        proposer)  # fmt: skip
-    print(run.evaluate(policies, title="Diffusion + LAC", facts=facts).read_text())
+    #    (plots and the Lyapunov trace first: eval.csv, written last, marks a finished run)
     print("\n".join(f"plot: {path}" for path in report.plot_run(cfg, run.dir, policy)))
     # the executed candidate's Lyapunov value along held-out episodes (Fig. 10-11)
     print(f"Lyapunov trace: {report.write_lyapunov_trace(cfg, run.dir, policy)}")
+    policies = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor,
+                                                        proposer)  # fmt: skip
+    print(run.evaluate(policies, title="Diffusion + LAC", facts=facts).read_text())
 
 
 if __name__ == "__main__":

@@ -75,6 +75,11 @@ def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
     assert (run_dir / "learning_curve.png").stat().st_size > 5_000
     assert (run_dir / "eval_episode.png").stat().st_size > 5_000
     assert "plot: " in result.stdout
+    # eval.csv marks a finished job (recipes/paper/run_all.py skips it): it comes last, so a
+    # run stopped before it is resumed and writes its Lyapunov trace and plots
+    mark = (run_dir / "eval.csv").stat().st_mtime_ns
+    for name in ("lyapunov_trace.csv", "learning_curve.png", "eval_episode.png"):
+        assert (run_dir / name).stat().st_mtime_ns <= mark, name
 
 
 def test_every_recipe_with_the_same_values_reuses_one_first_stage(tmp_path):
