@@ -20,6 +20,11 @@
 3. With ``page=docs/results.md``: the results page from the report (our numbers next to the
    paper's, a verdict per claim, the run's facts; ``torchrl_auv.report.paper.results_page``),
    its figures copied to ``docs/results/``.
+
+``status=true`` runs and writes nothing: it prints each job's state (finished, here or in
+the store; stopped at its newest checkpoint's frames; not started), the counts by framework
+and the time left at the rate of the sittings recorded in the store
+(``torchrl_auv.report.paper.progress``).
 """
 
 from __future__ import annotations
@@ -39,21 +44,12 @@ from omegaconf import DictConfig, OmegaConf
 
 from torchrl_auv.report.paper import grid, store, write_report
 from torchrl_auv.report.paper.output import first_stage_folder
+from torchrl_auv.report.paper.progress import format_status, grid_status, job_state
 from torchrl_auv.report.paper.results_page import write_results_page
 
 HERE = Path(__file__).resolve().parent
 TRAIN = HERE.parent / "train.py"
 log = logging.getLogger("run_all")
-
-
-def job_state(run_dir: Path) -> str:
-    """``"done"`` (``eval.csv`` written), ``"stopped"`` (checkpoints: resume) or ``"new"``."""
-    if (run_dir / "eval.csv").exists():
-        return "done"
-    checkpoints = run_dir / "checkpoints"
-    if checkpoints.is_dir() and any(checkpoints.iterdir()):
-        return "stopped"
-    return "new"
 
 
 def run_job(job: grid.Job, cfg: DictConfig, root: Path) -> tuple[str, str, float]:
@@ -180,6 +176,13 @@ def main(cfg: DictConfig) -> None:
     root = Path(cfg.run_root).resolve()
     jobs = grid.grid([e for e in experiments if e in grid.EXPERIMENTS], seeds)
     stored = Path(cfg.store).resolve() if cfg.get("store") else None
+    if cfg.get("status"):  # how far the grid has run; nothing is run or written
+        sittings = store.read_sittings(stored) if stored else []
+        status = grid_status(root, jobs, store=stored, sittings=sittings)
+        print(f"{len(jobs)} jobs ({cfg.budget} budget, seeds {seeds}) under {root}"
+              + (f", results store {stored}" if stored else ""))  # fmt: skip
+        print(format_status(status))
+        return
     if stored is not None:
         sync_store(root, stored, jobs)
     failed = run_jobs(jobs, cfg, root, stored) if cfg.jobs else []
