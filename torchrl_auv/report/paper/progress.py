@@ -30,7 +30,7 @@ from pathlib import Path
 from torchrl_auv.report.paper.grid import FRAMEWORKS, Job
 from torchrl_auv.report.paper.store import FINISHED_MARK
 
-__all__ = ["checkpoint_frames", "format_status", "grid_status", "job_state"]
+__all__ = ["checkpoint_frames", "format_status", "grid_status", "job_state", "sitting_hours"]
 
 
 def job_state(run_dir: str | Path) -> str:
@@ -56,13 +56,13 @@ def checkpoint_frames(run_dir: str | Path) -> int | None:
     return max(steps, default=None)
 
 
-def _hours(sitting: dict) -> float:
-    """A sitting's hours from its start to its last finished job (0 without one)."""
-    if not sitting.get("end"):
-        return 0.0
-    start = datetime.datetime.fromisoformat(sitting["start"])
-    end = datetime.datetime.fromisoformat(sitting["end"])
-    return max(0.0, (end - start).total_seconds() / 3600.0)
+def sitting_hours(sittings: Sequence[dict]) -> float:
+    """The hours of ``sittings`` (``store.read_sittings``), each from its start to its last
+    finished job (none for a sitting without one)."""
+    seconds = sum((datetime.datetime.fromisoformat(s["end"])
+                   - datetime.datetime.fromisoformat(s["start"])).total_seconds()
+                  for s in sittings if s.get("end"))  # fmt: skip
+    return max(0.0, seconds) / 3600.0
 
 
 def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | None = None,
@@ -88,7 +88,7 @@ def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | No
         rows.append((job.name, state, frames))
         counts[job.framework][state] += 1
     finished = sum(state == "done" for _, state, _ in rows)
-    hours = sum(_hours(s) for s in sittings)
+    hours = sitting_hours(sittings)
     in_sittings = sum(int(s.get("jobs_finished", 0)) for s in sittings)
     rate = in_sittings / hours if hours > 0 and in_sittings else float("nan")
     return {"jobs": rows, "counts": counts, "finished": finished, "total": len(rows),

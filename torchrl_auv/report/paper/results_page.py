@@ -17,7 +17,6 @@ Examples:
 
 from __future__ import annotations
 
-import datetime
 import json
 import os
 import re
@@ -27,6 +26,7 @@ from pathlib import Path
 
 from torchrl_auv.report.paper.claims import OUTCOMES, judge
 from torchrl_auv.report.paper.grid import Job
+from torchrl_auv.report.paper.progress import grid_status, sitting_hours
 
 __all__ = ["SECTIONS", "write_results_page"]
 
@@ -160,14 +160,23 @@ def _wall_time(sittings: Sequence[dict]) -> str:
     """The sittings' wall time: each from its start to its last finished job."""
     if not sittings:
         return "not recorded (no results store)"
-    hours = sum((datetime.datetime.fromisoformat(s["end"])
-                 - datetime.datetime.fromisoformat(s["start"])).total_seconds()
-                for s in sittings if s.get("end")) / 3600.0  # fmt: skip
+    hours = sitting_hours(sittings)
     finished = sum(s.get("jobs_finished", 0) for s in sittings)
     plural = "s" if len(sittings) != 1 else ""
     return (f"{hours:.1f} h over {len(sittings)} sitting{plural} (each from its start to its last "
             f"finished job; {finished} jobs finished in them, the rest before the record "
             "began)")  # fmt: skip
+
+
+def _time_left(root: Path, jobs: Sequence[Job], sittings: Sequence[dict]) -> str:
+    """``; about N h more at the sittings' rate (...)`` while jobs are left, else ``""``."""
+    status = grid_status(root, jobs, sittings=sittings)
+    if status["finished"] == status["total"] or status["hours_left"] != status["hours_left"]:
+        return ""
+    return (
+        f"; about {status['hours_left']:.1f} h more at the sittings' rate so far "
+        f"({status['rate_per_hour']:.1f} jobs per hour)"
+    )
 
 
 def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int],
@@ -182,7 +191,7 @@ def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int],
                                                    "1,000 acting frames)" if frames else "")),
         ("seeds", f"training {list(seeds)}; evaluation on held-out scenes (`eval.seed` 100000) "
                   "of each job's sea"),
-        ("jobs finished", f"{finished} of {len(jobs)}"),
+        ("jobs finished", f"{finished} of {len(jobs)}" + _time_left(root, jobs, sittings)),
         ("compute", f"{hours:.1f} h of one core, summed over the finished jobs' summaries "
                     "(first-stage build, training of the last sitting, evaluation); "
                     f"{run.get('config', {}).get('parallel', '?')} jobs at a time"),
