@@ -266,6 +266,8 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
 
 
 RANKS = ("OA", "CA1", "CA2", "CA3", "CA4", "RL")
+BAR_TITLES = {"return": "episode return",
+              **{key.removeprefix("eval/"): label for key, label in CURVE_KEYS}}  # fmt: skip
 
 
 def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
@@ -286,10 +288,18 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
                      "paper return (x 1e3)": FIG8_RETURN_E3[policy], **paper})  # fmt: skip
     fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.2), squeeze=False)
     for ax, metric in zip(axes[0], metrics, strict=True):
-        values = [r[metric] if math.isfinite(r[metric]) else 0.0 for r in rows]
-        errors = [r[f"{metric}_std"] if math.isfinite(r[f"{metric}_std"]) else 0.0 for r in rows]
-        ax.bar([r["policy"] for r in rows], values, yerr=errors, capsize=3)
-        ax.set_title(metric)
+        ran = [r for r in rows if math.isfinite(r[metric])]  # no bar of 0 for a row not run
+        errors = [r[f"{metric}_std"] if math.isfinite(r[f"{metric}_std"]) else 0.0 for r in ran]
+        ax.bar([r["policy"] for r in rows], [r[metric] if r in ran else 0.0 for r in rows],
+               alpha=0.0)  # every policy's place on the axis  # fmt: skip
+        ax.bar([r["policy"] for r in ran], [r[metric] for r in ran], yerr=errors, capsize=3,
+               color="C0")  # fmt: skip
+        if len(ran) < len(rows):
+            ax.text(0.5, 0.5, "not run yet" if not ran else "–: not run yet",
+                    ha="center", va="center", transform=ax.transAxes, color="0.5")  # fmt: skip
+        if not ran:
+            ax.set_yticks([])
+        ax.set_title(BAR_TITLES[metric])
         ax.tick_params(axis="x", labelrotation=45)
     paths = [_save(fig, Path(out_dir) / "fig8_9.png")]
     return paths + write_table(
