@@ -387,7 +387,7 @@ def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
             continue
         pooled = pool_traces(traces)
         mean, spread, length = pooled["mean"], pooled["std"], len(pooled["mean"])
-        (line,) = ax.plot(range(length), mean, label=label)
+        (line,) = ax.plot(range(length), mean, label=f"{label} ({len(traces)} of {len(seeds)})")
         ax.fill_between(range(length), [m - s for m, s in zip(mean, spread, strict=True)],
                         [m + s for m, s in zip(mean, spread, strict=True)],
                         color=line.get_color(), alpha=0.15)  # fmt: skip
@@ -396,7 +396,11 @@ def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
                      "L_first_tenth": first, "L_last_tenth": last})  # fmt: skip
     ax.set_xlabel("decision")
     ax.set_ylabel("L(s, a) of the executed action")
-    ax.legend(fontsize="small")
+    if ax.lines:
+        ax.legend(fontsize="small", title="runs of the seeds", title_fontsize="small")
+    else:
+        ax.text(0.5, 0.5, "not run yet", ha="center", va="center", transform=ax.transAxes,
+                color="0.5")  # fmt: skip
     paths = [_save(fig, Path(out_dir) / f"{experiment}.png")]
     return paths + write_table(
         out_dir,
