@@ -13,6 +13,7 @@ import pytest
 from torchrl_auv.report.paper import figures, store, write_report
 from torchrl_auv.report.paper.figures import pool_traces, tenth_means
 from torchrl_auv.report.paper.grid import Job, experiment_jobs
+from torchrl_auv.report.paper.output import mean_std, write_table
 
 POLICIES = ("diffusion_rl", "diffusion_lac", "sac", "diffusion", "OA", "CA1", "CA2", "CA3",
             "CA4", "RL", "proposer alone", "expert", "random")  # fmt: skip
@@ -209,3 +210,15 @@ def test_pooled_traces_weigh_every_running_episode():
     assert pooled["std"][0] == pytest.approx(math.sqrt((3 * 1.0 + 9.0) / 4))
     assert pooled["episodes"] == [4.0, 3.0, 0.0]
     assert tenth_means(pooled) == (2.0, 1.0)
+
+
+def test_one_seed_states_no_spread(tmp_path):
+    """A cell of one seed's value says so: a std of 0 would claim a spread measured as none."""
+    mean, std = mean_std([2.0, math.nan])
+    assert mean == 2.0 and math.isnan(std)
+    assert mean_std([2.0, 2.0]) == (2.0, 0.0)  # two equal values: a spread of 0, measured
+    rows = [{"cell": "one", "x": mean, "x_std": std}, {"cell": "two", "x": 2.0, "x_std": 0.0},
+            {"cell": "none", "x": math.nan, "x_std": math.nan}]  # fmt: skip
+    (md, _, _) = write_table(tmp_path, "t", rows, ["cell", "x"], header="h")
+    assert md.read_text().splitlines()[4:] == ["| one | 2 (one seed) |", "| two | 2 ± 0 |",
+                                               "| none | nan ± nan |"]  # fmt: skip

@@ -68,7 +68,7 @@ def test_claims_are_judged_from_each_jobs_own_row(tmp_path):
     first = judge(tmp_path, seeds)[_claim("Diffusion+RL and Diffusion+RL (LAC) reach a better")]
     assert first["comparisons"][0] == (
         "within noise",
-        "ideal: Diffusion+RL 1.01 ± 0.01 vs RL 2 ± 0",
+        "ideal: Diffusion+RL 1.01 ± 0.01 vs RL 2 (one seed)",
     )
     ssn = rows[_claim("... and serve more sensor nodes")]
     assert ssn["verdict"] == "reproduced"  # 5-7 nodes against SAC's 0, every sea

@@ -142,7 +142,9 @@ def _stat(root: Path, framework: str, sea: str, controller: str, seeds: Sequence
 
 def _fmt(stat: Stat) -> str:
     mean, std, runs = stat
-    return f"{mean:.3g} ± {std:.2g}" if runs and math.isfinite(mean) else "-"
+    if not (runs and math.isfinite(mean)):
+        return "-"
+    return f"{mean:.3g} (one seed)" if runs == 1 else f"{mean:.3g} ± {std:.2g}"
 
 
 def _pair(name_a: str, a: Stat, name_b: str, b: Stat, *, higher: bool) -> tuple[str, str]:

@@ -70,11 +70,12 @@ def read_eval(root: Path, job: Job) -> dict[str, dict[str, object]] | None:
 
 
 def mean_std(values: Sequence[float]) -> tuple[float, float]:
-    """Mean and sample standard deviation (0 for one value; NaN for none)."""
+    """Mean and sample standard deviation of the finite values (NaN for none; the std NaN
+    for one: one value has no spread to state, which a 0 would claim)."""
     values = [v for v in values if isinstance(v, float) and math.isfinite(v)]
     if not values:
         return math.nan, math.nan
-    return statistics.fmean(values), statistics.stdev(values) if len(values) > 1 else 0.0
+    return statistics.fmean(values), statistics.stdev(values) if len(values) > 1 else math.nan
 
 
 def job_rows(
@@ -97,7 +98,11 @@ def _cell(row: Mapping, column: str) -> str:
     value = row.get(column, "")
     if isinstance(value, float):
         std = row.get(f"{column}_std")
-        return f"{value:.3g}" if std is None else f"{value:.3g} ± {std:.3g}"
+        if std is None:
+            return f"{value:.3g}"
+        if math.isfinite(value) and not math.isfinite(std):  # mean_std of one value
+            return f"{value:.3g} (one seed)"
+        return f"{value:.3g} ± {std:.3g}"
     return str(value)
 
 
