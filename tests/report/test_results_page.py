@@ -81,7 +81,8 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     jobs = [Job("sac", "ves", "s_surface", 0), Job("diffusion", "ves", "s_surface", 0)]
     _finish(root, jobs[0], cost_mean=2.0)
     (root / "jobs" / jobs[0].name / "summary.md").write_text(
-        "- wall time this session (s): 3600\n- evaluation wall time (s): 1800\n"
+        "- wall time this session (s): 3600\n- training frames/s: 41.5\n"
+        "- evaluation wall time (s): 1800\n"
     )
     report = root / "report"
     (report / "fig7").mkdir(parents=True)
@@ -108,6 +109,8 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     assert ("| jobs finished | 1 of 2; about 0.6 h more at the sittings' rate so far (1.8 jobs "
             "per hour) |") in text  # fmt: skip
     assert "| wall time | 2.2 h over 2 sittings" in text and "4 jobs finished in them" in text
+    assert ("| training speed | frames/s per job as the grid ran them, median and range: RL "
+            "(SAC) 42 (1 job) |") in text  # fmt: skip
     assert "1.5 h of one core" in text and "`abc1234`" in text and "50,000 frames" in text
     # every claim has its verdict row, and an experiment without outputs says so
     assert text.count("| **not run yet** |") == len(CLAIMS)
@@ -170,3 +173,22 @@ def test_the_contraction_ratio_weighs_each_decision_by_its_running_episodes(tmp_
     rows = judge(tmp_path, (0, 1, 2))
     pairs = rows[_claim("A larger stability weight alpha contracts")]["comparisons"]
     assert pairs[0] == ("holds", "softplus-alpha0.1 0.4 ± 0 vs softplus-alpha0.05 0.8 ± 0")
+
+
+def test_training_speed_counts_sessions_that_trained_and_training_jobs_only(tmp_path):
+    """The proposer alone (its 1,000 acting frames) and a short resumed session (mostly
+    start-up) say nothing about training speed; the sampler ablation is its own row."""
+    root, page = tmp_path / "run", tmp_path / "docs" / "results.md"
+    facts = {Job("diffusion_lac", "ves", "s_surface", 0): (40.0, 1250),
+             Job("diffusion_lac", "ves", "s_surface", 1): (50.0, 1000),
+             Job("diffusion_lac", "ves", "s_surface", 2): (90.0, 100),  # 9,000 frames
+             Job("diffusion_lac", "ves", "s_surface", 0, "ddim10"): (77.0, 650),
+             Job("diffusion", "ves", "s_surface", 0): (5.0, 200)}  # fmt: skip
+    for job, (fps, wall) in facts.items():
+        _finish(root, job)
+        (root / "jobs" / job.name / "summary.md").write_text(
+            f"- wall time this session (s): {wall}\n- training frames/s: {fps}\n"
+        )
+    text = write_results_page(root, page, seeds=[0, 1, 2], jobs=list(facts)).read_text()
+    assert ("median and range: Diffusion+RL (LAC) 45, 40-50 (2 jobs); Diffusion+RL (LAC), "
+            "10 DDIM steps 77 (1 job) |") in text  # fmt: skip

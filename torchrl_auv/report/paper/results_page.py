@@ -21,12 +21,14 @@ import json
 import os
 import re
 import shutil
+import statistics
 from collections.abc import Sequence
 from pathlib import Path
 
 from torchrl_auv.report.paper.claims import OUTCOMES, judge
 from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.progress import grid_status, sitting_hours
+from torchrl_auv.report.paper.tables import LABELS
 
 __all__ = ["SECTIONS", "write_results_page"]
 
@@ -179,6 +181,41 @@ def _time_left(root: Path, jobs: Sequence[Job], sittings: Sequence[dict]) -> str
     )
 
 
+def _summary_number(text: str, fact: str) -> float | None:
+    """The number of ``- <fact>: <number>`` in a run's ``summary.md`` (``None``: not there)."""
+    found = re.search(rf"^- {re.escape(fact)}: ([-+\d.eE]+)\s*$", text, flags=re.MULTILINE)
+    try:
+        return float(found.group(1)) if found else None
+    except ValueError:
+        return None
+
+
+def _training_speed(root: Path, jobs: Sequence[Job]) -> str:
+    """Frames/s per training job as the finished jobs' summaries state it, median and range
+    by framework (the sampler ablation's 10 DDIM steps apart); only sessions that trained at
+    least 20,000 frames (a short resumed session is mostly start-up)."""
+    rates: dict[str, list[float]] = {}
+    for job in jobs:
+        path = root / "jobs" / job.name / "summary.md"
+        if job.framework == "diffusion" or not path.exists():
+            continue
+        text = path.read_text()
+        fps = _summary_number(text, "training frames/s")
+        wall = _summary_number(text, "wall time this session (s)")
+        if fps and wall and fps * wall >= 20_000:
+            label = LABELS[job.framework] + (", 10 DDIM steps" if job.variant == "ddim10" else "")
+            rates.setdefault(label, []).append(fps)
+    parts = []
+    for label, values in rates.items():
+        values.sort()
+        spread = f", {values[0]:.0f}-{values[-1]:.0f}" if len(values) > 1 else ""
+        parts.append(f"{label} {statistics.median(values):.0f}{spread} ({len(values)} "
+                     f"job{'s' if len(values) > 1 else ''})")  # fmt: skip
+    if not parts:
+        return "no finished training job yet"
+    return "frames/s per job as the grid ran them, median and range: " + "; ".join(parts)
+
+
 def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int],
                sittings: Sequence[dict]) -> list[str]:  # fmt: skip
     path = root / "report" / "run.json"
@@ -196,6 +233,7 @@ def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int],
                     "(first-stage build, training of the last sitting, evaluation); "
                     f"{run.get('config', {}).get('parallel', '?')} jobs at a time"),
         ("wall time", _wall_time(sittings)),
+        ("training speed", _training_speed(root, jobs)),
         ("report written", f"{run.get('date', '?')} at commit `{run.get('commit', '?')}`"),
         ("command", f"`{run.get('command', '?')}`"),
         ("machine", f"{run.get('machine', '?')} {run.get('processor', '')}".strip()),
