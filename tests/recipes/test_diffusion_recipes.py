@@ -78,7 +78,7 @@ def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
     # eval.csv marks a finished job (recipes/paper/run_all.py skips it): it comes last, so a
     # run stopped before it is resumed and writes its Lyapunov trace and plots
     mark = (run_dir / "eval.csv").stat().st_mtime_ns
-    for name in ("lyapunov_trace.csv", "learning_curve.png", "eval_episode.png"):
+    for name in ("lyapunov_trace.csv", "learning_curve.png", "eval_episode.png", "summary.md"):
         assert (run_dir / name).stat().st_mtime_ns <= mark, name
 
 

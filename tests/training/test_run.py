@@ -50,3 +50,21 @@ def test_the_envs_history_is_a_field_of_the_env_config(history, ok):
             training.env_history({"env": env})
     else:
         assert training.env_history({"env": env}) == ok
+
+
+def test_eval_csv_is_written_whole_or_not_at_all(tmp_path):
+    """eval.csv marks a finished run: a write that fails midway leaves none (nor its
+    temporary file), and a rewrite replaces the old one whole."""
+    from torchrl_auv.training.summary import write_eval
+
+    rows = [{"sea_state": "ves", "policy": "sac", "ssn": 1.0}]
+    path = write_eval(rows, tmp_path)
+    assert path.read_text().splitlines() == ["sea_state,policy,ssn", "ves,sac,1.0"]
+    with pytest.raises(ValueError):  # a row with a column the header lacks, after the header
+        write_eval([{"sea_state": "es", "policy": "sac"}, {"unknown": 1}], tmp_path)
+    assert path.read_text().splitlines()[1] == "ves,sac,1.0"  # the old one, untouched
+    assert [p.name for p in tmp_path.iterdir()] == ["eval.csv"]
+    path.unlink()
+    with pytest.raises(ValueError):
+        write_eval([{"sea_state": "es", "policy": "sac"}, {"unknown": 1}], tmp_path)
+    assert list(tmp_path.iterdir()) == []

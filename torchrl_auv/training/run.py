@@ -140,21 +140,22 @@ def finish_run(
 ) -> Path:
     """Evaluate ``policies`` (and nothing else: pass the reference ones in) on the held-out
     ``cfg.eval`` scenes (the run's envs, :func:`~torchrl_auv.training.held_out_env`; rows side
-    by side in ``cfg.eval.workers`` processes, 1 when absent), write
-    ``eval.csv`` and ``summary.md`` (with the evaluation's wall time), log
-    ``eval/<sea>/<policy>/<metric>`` and close the logger. Returns the summary's path."""
+    by side in ``cfg.eval.workers`` processes, 1 when absent), write ``summary.md`` (with
+    the evaluation's wall time), log ``eval/<sea>/<policy>/<metric>``, close the logger and
+    write ``eval.csv`` last (its presence marks a finished run). Returns the summary's
+    path."""
     eval_env = held_out_env(cfg, cfg.eval.num_envs, cfg.eval.steps)
     began = time.perf_counter()
     workers = OmegaConf.select(cfg, "eval.workers", default=None) or 1
     rows = evaluate(eval_env, policies, cfg.eval.sea_states, seed=cfg.eval.seed,
                     steps=cfg.eval.steps, progress=True, workers=workers)  # fmt: skip
     facts = {**facts, "evaluation wall time (s)": time.perf_counter() - began}
-    write_eval(rows, run_dir)
+    summary = write_summary(run_dir, title=title, rows=rows, facts=facts)
     for row in rows:
         log_metrics(logger, {f"eval/{row['sea_state']}/{row['policy']}/{key}": row[key]
                              for key in SUMMARY_COLUMNS}, step)  # fmt: skip
-    summary = write_summary(run_dir, title=title, rows=rows, facts=facts)
     close_logger(logger)
+    write_eval(rows, run_dir)  # last: eval.csv marks a finished run
     log.info("summary: %s", summary)
     return summary
 

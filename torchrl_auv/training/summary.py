@@ -12,6 +12,7 @@ Examples:
 from __future__ import annotations
 
 import csv
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -23,12 +24,19 @@ SUMMARY_COLUMNS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "t
 
 
 def write_eval(rows: Sequence[Mapping], run_dir: str | Path) -> Path:
-    """Write ``run_dir/eval.csv`` (columns: the first row's keys)."""
+    """Write ``run_dir/eval.csv`` (columns: the first row's keys) whole or not at all (a
+    temporary file renamed into place): its presence marks a finished run
+    (``recipes/paper/run_all.py`` skips it)."""
     path = Path(run_dir) / "eval.csv"
-    with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    partial = path.with_name(f".{path.name}.partial-{os.getpid()}")
+    try:
+        with open(partial, "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
     return path
 
 
