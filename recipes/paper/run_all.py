@@ -21,10 +21,11 @@
    paper's, a verdict per claim, the run's facts; ``torchrl_auv.report.paper.results_page``),
    its figures copied to ``docs/results/``.
 
-``status=true`` runs and writes nothing: it prints each job's state (finished, here or in
-the store; stopped at its newest checkpoint's frames; not started), the counts by framework
-and the time left at the rate of the sittings recorded in the store
-(``torchrl_auv.report.paper.progress``).
+``status=true`` runs no job and changes no result: it prints each job's state (finished,
+here or in the store; started, with its newest checkpoint's frames; not started), the counts
+by framework and the time left at the rate of the sittings recorded in the store
+(``torchrl_auv.report.paper.progress``); Hydra still opens its log, ``run_all.log``, in
+``run_root``.
 """
 
 from __future__ import annotations
@@ -182,6 +183,8 @@ def main(cfg: DictConfig) -> None:
         print(f"{len(jobs)} jobs ({cfg.budget} budget, seeds {seeds}) under {root}"
               + (f", results store {stored}" if stored else ""))  # fmt: skip
         print(format_status(status))
+        if not (root / "jobs").is_dir():
+            print(f"(no jobs/ folder under {root}: is run_root the grid's run folder?)")
         return
     if stored is not None:
         sync_store(root, stored, jobs)

@@ -45,13 +45,16 @@ def test_each_job_has_its_state_and_the_time_left_follows_the_sittings(tmp_path)
     assert math.isclose(status["rate_per_hour"], 2 / 1.5)
     assert math.isclose(status["hours_left"], 1.5)
     text = format_status(status)
-    assert f"stopped at 30,000 frames     {jobs[2].name}" in text
+    assert f"checkpoint at 30,000 frames    {jobs[2].name}" in text
+    assert f"not started                    {jobs[3].name}" in text
     assert "finished 2 of 4" in text and "diffusion_lac  0 / 1 / 1" in text
     assert "take about 1.5 h" in text
     # without the store, the job only it holds is not finished; without sittings, no estimate
     alone = grid_status(root, jobs)
     assert alone["jobs"][1][1] == "new" and math.isnan(alone["hours_left"])
-    assert "no estimate of the time left" in format_status(alone)
+    assert "no sitting recorded" in format_status(alone)
+    idle = grid_status(root, jobs, sittings=sittings[1:])  # a sitting that finished nothing
+    assert "finished no job yet: no estimate" in format_status(idle)
 
 
 def test_run_all_status_prints_the_grid_and_runs_and_writes_nothing(tmp_path):
@@ -67,6 +70,6 @@ def test_run_all_status_prints_the_grid_and_runs_and_writes_nothing(tmp_path):
     assert done.returncode == 0, done.stderr[-3000:]
     assert "102 jobs (paper budget, seeds [0, 1, 2])" in done.stdout
     assert "finished 2 of 102" in done.stdout
-    assert "stopped at 30,000 frames" in done.stdout
+    assert "checkpoint at 30,000 frames" in done.stdout
     # nothing run, stored or restored (Hydra's own log of the command aside)
     assert sorted(p for p in tmp_path.rglob("*") if p.name != "run_all.log") == before

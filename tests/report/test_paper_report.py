@@ -200,16 +200,20 @@ def test_the_papers_rate_formula_inflates_the_experts_data(tmp_path):
 
 
 def test_pooled_traces_weigh_every_running_episode():
-    """Seed 0's 3 episodes at 1.0, seed 1's one episode at 5.0 (ended after decision 0): the
-    pooled mean is (3 x 1 + 5) / 4 = 2 at decision 0 (not the seeds' (1 + 5) / 2 = 3), its
-    spread the episodes' about it, and seed 0 alone after; nothing where none runs."""
-    seed0 = {"mean": [1.0, 1.0, math.nan], "std": [0.0, 0.0, math.nan], "episodes": [3, 3, 0]}
+    """Seed 0's 3 episodes at 0, 1, 2 (mean 1, sample std 1), seed 1's one episode at 5
+    (ended after decision 0): the pooled mean is (3 x 1 + 5) / 4 = 2 at decision 0 (not the
+    seeds' (1 + 5) / 2 = 3) and the std that of the four episodes 0, 1, 2, 5; seed 0 alone
+    after; nothing where none runs."""
+    seed0 = {"mean": [1.0, 1.0, math.nan], "std": [1.0, 1.0, math.nan], "episodes": [3, 3, 0]}
     seed1 = {"mean": [5.0], "std": [0.0], "episodes": [1]}
     pooled = pool_traces([seed0, seed1])
     assert pooled["mean"][:2] == [2.0, 1.0] and math.isnan(pooled["mean"][2])
-    assert pooled["std"][0] == pytest.approx(math.sqrt((3 * 1.0 + 9.0) / 4))
+    assert pooled["std"][0] == pytest.approx(statistics.stdev([0.0, 1.0, 2.0, 5.0]))
+    assert pooled["std"][1] == pytest.approx(1.0)  # seed 0's own
     assert pooled["episodes"] == [4.0, 3.0, 0.0]
     assert tenth_means(pooled) == (2.0, 1.0)
+    one = pool_traces([{"mean": [3.0], "std": [0.0], "episodes": [1]}])
+    assert one["std"] == [0.0]  # one episode: no spread, as lyapunov_trace writes it
 
 
 def test_one_seed_states_no_spread(tmp_path):

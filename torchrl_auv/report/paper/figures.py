@@ -249,9 +249,10 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
         axes[-1, j].set_xlabel("frames")
         if axes[0, j].lines:
             axes[0, j].legend(fontsize="small", title="runs of the seeds", title_fontsize="small")
+        if not any(ax.lines for ax in axes[:, j]):  # the column shares its x axis
+            axes[-1, j].set_xticks([])
         for ax in axes[:, j]:
             if not ax.lines:
-                ax.set_xticks([])
                 ax.set_yticks([])
                 ax.text(0.5, 0.5, "not run yet", ha="center", va="center",
                         transform=ax.transAxes, color="0.5")  # fmt: skip
@@ -337,17 +338,20 @@ def lyapunov_trace(root: Path, job: Job) -> dict[str, list[float]] | None:
 
 def pool_traces(traces: Sequence[dict[str, list[float]]]) -> dict[str, list[float]]:
     """Traces of :func:`lyapunov_trace` (e.g. one per seed) as one: per decision, the mean and
-    std over every episode still running in any of them, and their number; a trace shorter
-    than the longest counts no episode beyond its end; NaN where none runs."""
+    the sample std (n - 1, as each trace's) over every episode still running in any of them,
+    and their number; a trace shorter than the longest counts no episode beyond its end; NaN
+    where none runs, std 0 where one does."""
     out = {"mean": [], "std": [], "episodes": []}
     for i in range(max((len(t["mean"]) for t in traces), default=0)):
         parts = [(t["mean"][i], t["std"][i], t["episodes"][i]) for t in traces
                  if i < len(t["mean"]) and t["episodes"][i] > 0]  # fmt: skip
         count = sum(n for _, _, n in parts)
         mean = sum(m * n for m, _, n in parts) / count if count else math.nan
-        square = sum(n * (s**2 + (m - mean) ** 2) for m, s, n in parts)
+        # within each trace (n - 1) s^2, between them n (m - mean)^2: the episodes' squares
+        square = sum((n - 1) * s**2 + n * (m - mean) ** 2 for m, s, n in parts)
         out["mean"].append(mean)
-        out["std"].append(math.sqrt(square / count) if count else math.nan)
+        out["std"].append(math.sqrt(square / (count - 1)) if count > 1 else
+                          (0.0 if count else math.nan))  # fmt: skip
         out["episodes"].append(float(count))
     return out
 
@@ -392,7 +396,8 @@ def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
                         [m + s for m, s in zip(mean, spread, strict=True)],
                         color=line.get_color(), alpha=0.15)  # fmt: skip
         first, last = tenth_means(pooled)
-        rows.append({"variant": label, "runs": len(traces), "decisions": length,
+        running = sum(n > 0 for n in pooled["episodes"])  # decisions with an episode on
+        rows.append({"variant": label, "runs": len(traces), "decisions": running,
                      "L_first_tenth": first, "L_last_tenth": last})  # fmt: skip
     ax.set_xlabel("decision")
     ax.set_ylabel("L(s, a) of the executed action")

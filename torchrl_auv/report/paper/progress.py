@@ -72,10 +72,10 @@ def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | No
 
     Returns:
         ``{"jobs": [(name, state, frames)], "counts": {framework: Counter of states},
-        "finished": n, "total": n, "rate_per_hour": jobs finished per hour of the sittings
-        (NaN without any), "hours_left": the jobs not finished at that rate (NaN)}``; a
-        state is ``"done"``, ``"stopped"`` (``frames``: its newest checkpoint's) or
-        ``"new"``.
+        "finished": n, "total": n, "sittings": n, "rate_per_hour": jobs finished per hour
+        of the sittings (NaN without any), "hours_left": the jobs not finished at that rate
+        (NaN)}``; a state is ``"done"``, ``"stopped"`` (checkpoints: stopped, or running
+        now; ``frames``: its newest checkpoint's) or ``"new"``.
     """
     root = Path(root)
     rows, counts = [], {framework: Counter() for framework in FRAMEWORKS}
@@ -92,17 +92,20 @@ def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | No
     in_sittings = sum(int(s.get("jobs_finished", 0)) for s in sittings)
     rate = in_sittings / hours if hours > 0 and in_sittings else float("nan")
     return {"jobs": rows, "counts": counts, "finished": finished, "total": len(rows),
-            "rate_per_hour": rate, "hours_left": (len(rows) - finished) / rate}  # fmt: skip
+            "sittings": len(sittings), "rate_per_hour": rate,
+            "hours_left": (len(rows) - finished) / rate}  # fmt: skip
 
 
 def format_status(status: dict) -> str:
     """:func:`grid_status` as text: a line per job, the counts by framework, the time left."""
     lines = []
-    for name, state, frames in status["jobs"]:
-        label = f"stopped at {frames:,} frames" if state == "stopped" and frames else state
-        lines.append(f"  {label:<28} {name}")
+    for name, state, frames in status["jobs"]:  # a job running now has checkpoints as well
+        label = {"done": "finished", "new": "not started"}.get(state, "started")
+        if state == "stopped" and frames:
+            label = f"checkpoint at {frames:,} frames"
+        lines.append(f"  {label:<30} {name}")
     lines.append(f"finished {status['finished']} of {status['total']}; by framework "
-                 "(done / stopped / new):")  # fmt: skip
+                 "(finished / started / not started):")  # fmt: skip
     for framework, count in status["counts"].items():
         if sum(count.values()):
             lines.append(f"  {framework:<14} {count['done']} / {count['stopped']} / "
@@ -111,6 +114,10 @@ def format_status(status: dict) -> str:
     if rate == rate:  # not NaN
         lines.append(f"at the sittings' rate so far ({rate:.2f} jobs per hour) the jobs not "
                      f"finished take about {status['hours_left']:.1f} h")  # fmt: skip
+    elif status["sittings"]:
+        lines.append("the sittings recorded have finished no job yet: no estimate of the time "
+                     "left")  # fmt: skip
     else:
-        lines.append("no sitting recorded yet (store=...): no estimate of the time left")
+        lines.append("no sitting recorded (the results store, store=..., records them): no "
+                     "estimate of the time left")  # fmt: skip
     return "\n".join(lines)

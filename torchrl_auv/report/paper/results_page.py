@@ -192,8 +192,10 @@ def _summary_number(text: str, fact: str) -> float | None:
 
 def _training_speed(root: Path, jobs: Sequence[Job]) -> str:
     """Frames/s per training job as the finished jobs' summaries state it, median and range
-    by framework (the sampler ablation's 10 DDIM steps apart); only sessions that trained at
-    least 20,000 frames (a short resumed session is mostly start-up)."""
+    by framework (the sampler ablation's 10 DDIM steps apart); only sessions whose frames/s
+    times wall time reach 20,000 frames (the wall time includes the learning curve's points,
+    so this bounds the frames trained from above; a short resumed session is mostly
+    start-up)."""
     rates: dict[str, list[float]] = {}
     for job in jobs:
         path = root / "jobs" / job.name / "summary.md"

@@ -53,7 +53,8 @@ __all__ = [
     "save_finished",
 ]
 
-#: The file whose presence makes a job finished (``run_all.job_state``).
+#: The file whose presence makes a job finished
+#: (:func:`~torchrl_auv.report.paper.progress.job_state`).
 FINISHED_MARK = "eval.csv"
 
 #: What the store keeps of a finished job (those that exist): the evaluation, the learning
