@@ -71,11 +71,12 @@ def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | No
     it), counts by framework, and the rate of the ``sittings`` (``store.read_sittings``).
 
     Returns:
-        ``{"jobs": [(name, state, frames)], "counts": {framework: Counter of states},
-        "finished": n, "total": n, "sittings": n, "rate_per_hour": jobs finished per hour
-        of the sittings (NaN without any), "hours_left": the jobs not finished at that rate
-        (NaN)}``; a state is ``"done"``, ``"stopped"`` (checkpoints: stopped, or running
-        now; ``frames``: its newest checkpoint's) or ``"new"``.
+        a dict: ``jobs`` (``(name, state, frames)`` per job), ``counts`` (per framework a
+        ``Counter`` of states), ``finished``, ``total``, ``sittings`` (numbers of jobs and
+        sittings), ``rate_per_hour`` (jobs finished per hour of the sittings; NaN without
+        any) and ``hours_left`` (the jobs not finished at that rate; NaN). A state is
+        ``"done"``, ``"stopped"`` (checkpoints: stopped, or running now; ``frames`` its
+        newest checkpoint's) or ``"new"``.
     """
     root = Path(root)
     rows, counts = [], {framework: Counter() for framework in FRAMEWORKS}
