@@ -182,12 +182,14 @@ def test_training_speed_counts_sessions_that_trained_and_training_jobs_only(tmp_
     facts = {Job("diffusion_lac", "ves", "s_surface", 0): (40.0, 1250),
              Job("diffusion_lac", "ves", "s_surface", 1): (50.0, 1000),
              Job("diffusion_lac", "ves", "s_surface", 2): (90.0, 100),  # 9,000 frames
+             Job("diffusion_lac", "es", "s_surface", 0): (60.0, 1000),  # stated: 15,000
              Job("diffusion_lac", "ves", "s_surface", 0, "ddim10"): (77.0, 650),
              Job("diffusion", "ves", "s_surface", 0): (5.0, 200)}  # fmt: skip
     for job, (fps, wall) in facts.items():
         _finish(root, job)
+        stated = "- frames this session: 15000\n" if job.sea == "es" else ""
         (root / "jobs" / job.name / "summary.md").write_text(
-            f"- wall time this session (s): {wall}\n- training frames/s: {fps}\n"
+            f"{stated}- wall time this session (s): {wall}\n- training frames/s: {fps}\n"
         )
     text = write_results_page(root, page, seeds=[0, 1, 2], jobs=list(facts)).read_text()
     assert ("median and range: Diffusion+RL (LAC) 45, 40-50 (2 jobs); Diffusion+RL (LAC), "

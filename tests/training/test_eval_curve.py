@@ -170,7 +170,10 @@ def test_a_session_that_trains_nothing_reports_no_rate_rather_than_zero(tmp_path
     rotation = _Saves(tmp_path / "eval_curve.csv")
     resumed = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(frames=40), None,
                                   rotation)  # fmt: skip
-    assert resumed.finish(done)["training frames/s"].startswith("none trained")
+    facts = resumed.finish(done)
+    assert facts["training frames/s"].startswith("none trained")
+    assert (facts["frames"], facts["frames this session"]) == (40, 0)
     fresh = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(), None, rotation)
     fresh.progress.frames = 8
-    assert fresh.finish(done)["training frames/s"] > 0
+    facts = fresh.finish(done)
+    assert facts["training frames/s"] > 0 and facts["frames this session"] == 8

@@ -200,7 +200,8 @@ class RunTracker:
 
     def finish(self, collector) -> dict[str, object]:
         """Shut the collector down, save the final checkpoint; returns the session's facts
-        (frames, wall time, training frames/s, peak memory) for the summary."""
+        (frames in all and in this session, wall time, training frames/s, peak memory) for
+        the summary."""
         collector.shutdown()
         self._collect_curve(wait=True)
         if self.worker is not None:
@@ -208,6 +209,7 @@ class RunTracker:
         self.bar.close()
         self.rotation.save(self.checkpoint, step=self.progress.frames)
         return {"frames": self.progress.frames,
+                "frames this session": self.progress.frames - self.frames_at_start,
                 "wall time this session (s)": time.perf_counter() - self.start,
                 "training frames/s": self.rate() if self.progress.frames > self.frames_at_start
                 else "none trained in this session (resumed at its last frame)",

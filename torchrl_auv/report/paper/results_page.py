@@ -192,10 +192,10 @@ def _summary_number(text: str, fact: str) -> float | None:
 
 def _training_speed(root: Path, jobs: Sequence[Job]) -> str:
     """Frames/s per training job as the finished jobs' summaries state it, median and range
-    by framework (the sampler ablation's 10 DDIM steps apart); only sessions whose frames/s
-    times wall time reach 20,000 frames (the wall time includes the learning curve's points,
-    so this bounds the frames trained from above; a short resumed session is mostly
-    start-up)."""
+    by framework (the sampler ablation's 10 DDIM steps apart); only sessions that trained
+    20,000 frames or more (a short resumed session is mostly start-up); where a summary does
+    not state its session's frames, frames/s times wall time stands in (an upper bound: the
+    wall time has the learning curve's points too)."""
     rates: dict[str, list[float]] = {}
     for job in jobs:
         path = root / "jobs" / job.name / "summary.md"
@@ -204,7 +204,10 @@ def _training_speed(root: Path, jobs: Sequence[Job]) -> str:
         text = path.read_text()
         fps = _summary_number(text, "training frames/s")
         wall = _summary_number(text, "wall time this session (s)")
-        if fps and wall and fps * wall >= 20_000:
+        trained = _summary_number(text, "frames this session")  # older summaries: none
+        if trained is None and fps and wall:
+            trained = fps * wall  # an upper bound: the wall time has the curve's points too
+        if fps and trained and trained >= 20_000:
             label = LABELS[job.framework] + (", 10 DDIM steps" if job.variant == "ddim10" else "")
             rates.setdefault(label, []).append(fps)
     parts = []
