@@ -289,12 +289,10 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
                      "paper return (x 1e3)": FIG8_RETURN_E3[policy], **paper})  # fmt: skip
     fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.2), squeeze=False)
     for ax, metric in zip(axes[0], metrics, strict=True):
-        ran = [r for r in rows if math.isfinite(r[metric])]  # no bar of 0 for a row not run
-        errors = [r[f"{metric}_std"] if math.isfinite(r[f"{metric}_std"]) else 0.0 for r in ran]
-        ax.bar([r["policy"] for r in rows], [r[metric] if r in ran else 0.0 for r in rows],
-               alpha=0.0)  # every policy's place on the axis  # fmt: skip
-        ax.bar([r["policy"] for r in ran], [r[metric] for r in ran], yerr=errors, capsize=3,
-               color="C0")  # fmt: skip
+        ran = [r for r in rows if math.isfinite(r[metric])]
+        # NaN (a row not run, the std of one seed) draws no bar and no error bar, not a 0
+        ax.bar([r["policy"] for r in rows], [r[metric] for r in rows],
+               yerr=[r[f"{metric}_std"] for r in rows], capsize=3)  # fmt: skip
         if len(ran) < len(rows):
             ax.text(0.5, 0.5, "not run yet" if not ran else "–: not run yet",
                     ha="center", va="center", transform=ax.transAxes, color="0.5")  # fmt: skip

@@ -23,6 +23,7 @@ Examples:
 from __future__ import annotations
 
 import datetime
+import math
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -91,7 +92,7 @@ def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | No
     finished = sum(state == "done" for _, state, _ in rows)
     hours = sitting_hours(sittings)
     in_sittings = sum(int(s.get("jobs_finished", 0)) for s in sittings)
-    rate = in_sittings / hours if hours > 0 and in_sittings else float("nan")
+    rate = in_sittings / hours if hours > 0 and in_sittings else math.nan
     return {"jobs": rows, "counts": counts, "finished": finished, "total": len(rows),
             "sittings": len(sittings), "rate_per_hour": rate,
             "hours_left": (len(rows) - finished) / rate}  # fmt: skip
@@ -112,7 +113,7 @@ def format_status(status: dict) -> str:
             lines.append(f"  {framework:<14} {count['done']} / {count['stopped']} / "
                          f"{count['new']}")  # fmt: skip
     rate = status["rate_per_hour"]
-    if rate == rate:  # not NaN
+    if not math.isnan(rate):
         lines.append(f"at the sittings' rate so far ({rate:.2f} jobs per hour) the jobs not "
                      f"finished take about {status['hours_left']:.1f} h")  # fmt: skip
     elif status["sittings"]:

@@ -18,6 +18,7 @@ Examples:
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -136,6 +137,21 @@ def _cell(text: str) -> str:
     return re.sub(r"\bnan ± nan\b|\bnan\b", "–", text)
 
 
+def _found_number(pattern: str, text: str) -> float | None:
+    """The number ``pattern``'s group 1 finds in ``text`` (a line of a run's ``summary.md``);
+    ``None`` where it finds none, or none that parses (a summary of another version)."""
+    found = re.search(pattern, text, flags=re.MULTILINE)
+    try:
+        return float(found.group(1)) if found else None
+    except ValueError:
+        return None
+
+
+def _summary_number(text: str, fact: str) -> float | None:
+    """The number of ``- <fact>: <number>`` in a run's ``summary.md`` (``None``: not there)."""
+    return _found_number(rf"^- {re.escape(fact)}: ([-+\d.eE]+)\s*$", text)
+
+
 def _compute_hours(root: Path, jobs: Sequence[Job]) -> tuple[float, int]:
     """Hours the finished jobs took as their summaries state (first-stage build, training
     of the last sitting, evaluation), and how many finished."""
@@ -148,13 +164,10 @@ def _compute_hours(root: Path, jobs: Sequence[Job]) -> tuple[float, int]:
         if not summary.exists():
             continue
         text = summary.read_text()
-        for pattern in (r"built in ([-+\d.eE]+) s", r"wall time this session \(s\): ([-+\d.eE]+)",
-                        r"evaluation wall time \(s\): ([-+\d.eE]+)"):  # fmt: skip
-            found = re.search(pattern, text)
-            try:
-                seconds += float(found.group(1)) if found else 0.0
-            except ValueError:  # a summary written by another version: not counted
-                continue
+        parts = (_found_number(r"built in ([-+\d.eE]+) s", text),
+                 _summary_number(text, "wall time this session (s)"),
+                 _summary_number(text, "evaluation wall time (s)"))  # fmt: skip
+        seconds += sum(part for part in parts if part is not None)
     return seconds / 3600.0, finished
 
 
@@ -173,21 +186,12 @@ def _wall_time(sittings: Sequence[dict]) -> str:
 def _time_left(root: Path, jobs: Sequence[Job], sittings: Sequence[dict]) -> str:
     """``; about N h more at the sittings' rate (...)`` while jobs are left, else ``""``."""
     status = grid_status(root, jobs, sittings=sittings)
-    if status["finished"] == status["total"] or status["hours_left"] != status["hours_left"]:
+    if status["finished"] == status["total"] or math.isnan(status["hours_left"]):
         return ""
     return (
         f"; about {status['hours_left']:.1f} h more at the sittings' rate so far "
         f"({status['rate_per_hour']:.1f} jobs per hour)"
     )
-
-
-def _summary_number(text: str, fact: str) -> float | None:
-    """The number of ``- <fact>: <number>`` in a run's ``summary.md`` (``None``: not there)."""
-    found = re.search(rf"^- {re.escape(fact)}: ([-+\d.eE]+)\s*$", text, flags=re.MULTILINE)
-    try:
-        return float(found.group(1)) if found else None
-    except ValueError:
-        return None
 
 
 def _training_speed(root: Path, jobs: Sequence[Job]) -> str:
