@@ -5,7 +5,8 @@ evaluation sea state and policy) and Hydra's ``.hydra/overrides.yaml`` (the job'
 :func:`load_runs` reads them all; the *axes* are the override keys whose values differ
 between jobs. :func:`aggregate` groups the rows by the axes other than ``over`` (the seed, by
 default), the evaluation sea state and the policy, and gives each metric's mean, standard
-deviation (``ddof=1``; 0 for one run) and the number of runs. By default only each job's own
+deviation (``ddof=1``; NaN for one run: a spread not measured, not a spread of 0) and the
+number of runs. By default only each job's own
 framework is kept (the row whose policy is named after ``framework``); ``policies`` picks
 others (``"expert"``, ``"random"``, ``"OA"``, ...).
 
@@ -122,13 +123,14 @@ def aggregate(
         for metric in metrics:
             numbers = [m[metric] for m in members if isinstance(m.get(metric), float)]
             out[metric] = statistics.fmean(numbers) if numbers else math.nan
-            out[f"{metric}_std"] = statistics.stdev(numbers) if len(numbers) > 1 else 0.0
+            out[f"{metric}_std"] = statistics.stdev(numbers) if len(numbers) > 1 else math.nan
         table.append(out)
     return table
 
 
 def markdown_table(table: Sequence[dict], *, metrics: Sequence[str] = DEFAULT_METRICS) -> str:
-    """``table`` (:func:`aggregate`) as Markdown, each metric as ``mean ± std``."""
+    """``table`` (:func:`aggregate`) as Markdown, each metric as ``mean ± std`` (``mean (one
+    run)`` where a single run measured no spread)."""
     if not table:
         return "(no rows)"
     labels = [key for key in table[0] if key not in metrics and not key.endswith("_std")]
@@ -136,6 +138,12 @@ def markdown_table(table: Sequence[dict], *, metrics: Sequence[str] = DEFAULT_ME
              "|" + "---|" * (len(labels) + len(metrics))]  # fmt: skip
     for row in table:
         cells = [str(row[label]) for label in labels]
-        cells += [f"{row[m]:.3g} ± {row[f'{m}_std']:.3g}" for m in metrics]
+        cells += [_cell(row[m], row[f"{m}_std"]) for m in metrics]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _cell(mean: float, std: float) -> str:
+    if math.isnan(std) and not math.isnan(mean):
+        return f"{mean:.3g} (one run)"
+    return f"{mean:.3g} ± {std:.3g}"
