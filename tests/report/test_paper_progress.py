@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from torchrl_auv.report.paper.grid import Job
-from torchrl_auv.report.paper.progress import format_status, grid_status
+from torchrl_auv.report.paper.progress import format_status, grid_status, sitting_hours
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -55,6 +55,23 @@ def test_each_job_has_its_state_and_the_time_left_follows_the_sittings(tmp_path)
     assert "no sitting recorded" in format_status(alone)
     idle = grid_status(root, jobs, sittings=sittings[1:])  # a sitting that finished nothing
     assert "finished no job yet: no estimate" in format_status(idle)
+
+
+def test_sittings_at_the_same_time_count_their_hours_once():
+    """Two run_all.py at once on one machine (the grid and a second experiment): the hours
+    are the machine's, the union of the sittings' spans, not their sum."""
+
+    def sitting(start, end):
+        return {"start": f"2026-12-05T{start}:00+00:00", "end": f"2026-12-05T{end}:00+00:00"}
+
+    apart = [sitting("01:00", "02:00"), sitting("03:00", "03:30")]
+    assert math.isclose(sitting_hours(apart), 1.5)
+    inside = [sitting("01:00", "04:00"), sitting("02:00", "03:00")]
+    assert math.isclose(sitting_hours(inside), 3.0)
+    overlapping = [sitting("02:00", "05:00"), sitting("01:00", "03:00"), sitting("06:00", "07:00")]
+    assert math.isclose(sitting_hours(overlapping), 5.0)
+    assert math.isclose(sitting_hours([*overlapping, {"start": "2026-12-05T00:00:00+00:00",
+                                                      "end": None}]), 5.0)  # fmt: skip
 
 
 def test_run_all_status_prints_the_grid_and_runs_and_writes_nothing(tmp_path):

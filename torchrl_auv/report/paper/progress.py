@@ -59,11 +59,18 @@ def checkpoint_frames(run_dir: str | Path) -> int | None:
 
 def sitting_hours(sittings: Sequence[dict]) -> float:
     """The hours of ``sittings`` (``store.read_sittings``), each from its start to its last
-    finished job (none for a sitting without one)."""
-    seconds = sum((datetime.datetime.fromisoformat(s["end"])
-                   - datetime.datetime.fromisoformat(s["start"])).total_seconds()
-                  for s in sittings if s.get("end"))  # fmt: skip
-    return max(0.0, seconds) / 3600.0
+    finished job (none for a sitting without one); sittings at the same time (two
+    ``run_all.py`` at once) count their shared hours once: the union of their spans."""
+    spans = sorted((datetime.datetime.fromisoformat(s["start"]),
+                    datetime.datetime.fromisoformat(s["end"]))
+                   for s in sittings if s.get("end"))  # fmt: skip
+    seconds, reached = 0.0, None
+    for start, end in spans:
+        start = start if reached is None else max(start, reached)
+        if end > start:
+            seconds += (end - start).total_seconds()
+            reached = end
+    return seconds / 3600.0
 
 
 def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | None = None,
