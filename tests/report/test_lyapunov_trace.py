@@ -53,3 +53,33 @@ def test_a_rollout_without_a_lyapunov_selector_is_named():
         assert "CandidateSelector" in str(error)
     else:
         raise AssertionError("no error")
+
+
+def test_the_written_trace_is_seeded_by_the_evaluation_seed_and_leaves_the_rng(tmp_path):
+    """The trace's rollout (the proposer's noise) draws from torch's generator seeded with
+    ``eval.seed``, forked: the same file whatever the generator's state before (a resumed
+    run's trace is an uninterrupted run's), and the caller's generator untouched."""
+    from omegaconf import OmegaConf
+
+    from torchrl_auv import training
+    from torchrl_auv.modules import DiffusionProposer
+    from torchrl_auv.report import write_lyapunov_trace
+
+    cfg = OmegaConf.create({"env": {"sea_state": "ideal", "controller": "pid",
+                                    "rate_model": "shannon", "history": 2},
+                            "eval": {"num_envs": 1, "steps": 4, "seed": 100_000,
+                                     "sea_states": ["ideal"]}})  # fmt: skip
+    env = training.held_out_env(cfg, 1, 4)("ideal", 0)
+    torch.manual_seed(0)
+    proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
+    critic = training.make_lyapunov_critic(env, (8,))
+    policy = training.make_selection_policy(proposer, critic, mode="lyapunov",
+                                             critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
+    texts = []
+    for state in (1, 2):
+        torch.manual_seed(state)
+        before = torch.random.get_rng_state()
+        (tmp_path / str(state)).mkdir()
+        texts.append(write_lyapunov_trace(cfg, tmp_path / str(state), policy).read_text())
+        assert torch.equal(torch.random.get_rng_state(), before)
+    assert texts[0] == texts[1] and len(texts[0].splitlines()) == 5

@@ -75,12 +75,17 @@ def lyapunov_trace(rollout: TensorDictBase) -> dict[str, torch.Tensor]:
 def write_lyapunov_trace(cfg: Mapping, run_dir: str | Path, policy) -> Path:
     """Play ``cfg.eval.num_envs`` held-out scenes of the first evaluation sea state (seed
     ``cfg.eval.seed``, ``cfg.eval.steps`` decisions, deterministic) with ``policy`` and write
-    ``run_dir/lyapunov_trace.csv``: ``decision, mean, std, episodes``. Returns its path."""
+    ``run_dir/lyapunov_trace.csv``: ``decision, mean, std, episodes``. The proposer's noise
+    draws from torch's generator seeded with ``cfg.eval.seed`` (forked: restored after), as
+    the evaluation rows do: a resumed run writes the trace an uninterrupted one does.
+    Returns its path."""
     from torchrl_auv.training import held_out_env
 
     ev = cfg["eval"]
     env = held_out_env(cfg, ev["num_envs"], ev["steps"])(ev["sea_states"][0], ev["seed"])
-    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
+    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad(), \
+            torch.random.fork_rng():  # fmt: skip
+        torch.manual_seed(ev["seed"])
         rollout = env.rollout(ev["steps"], policy, break_when_any_done=False)
     trace = lyapunov_trace(rollout)
     path = Path(run_dir) / "lyapunov_trace.csv"
