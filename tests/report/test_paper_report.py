@@ -144,6 +144,23 @@ def test_fig8_9_puts_the_papers_numbers_beside_ours(tmp_path):
     )
 
 
+def test_fig8_9_shows_the_proposer_alone_the_expert_and_random_as_reference_rows(root):
+    """Beyond the paper's six strategies: the same jobs' proposer alone (no critic), scripted
+    expert and random actions, labelled as references, with no paper numbers."""
+    write_report(root, ["fig8_9"], seeds=(0, 1, 2), budget="paper")
+    rows = json.loads((root / "report/fig8_9/fig8_9.json").read_text())["rows"]
+    names = [r["policy"] for r in rows]
+    assert names == ["OA", "CA1", "CA2", "CA3", "CA4", "RL (LAC)",
+                     "proposer alone (reference)", "expert (reference)",
+                     "random (reference)"]  # fmt: skip
+    jobs = [Job("diffusion_lac", "ves", "s_surface", s) for s in (0, 1, 2)]
+    for row, policy in zip(rows[6:], ("proposer alone", "expert", "random"), strict=True):
+        assert row["runs"] == 3 and row["ssn"] == _mean(jobs, policy, "ssn")
+        cost, decisions = _mean(jobs, policy, "cost_mean"), _mean(jobs, policy, "decisions")
+        assert row["return"] == pytest.approx(-cost * decisions)
+        assert math.isnan(row["paper ssn"]) and math.isnan(row["paper return (x 1e3)"])
+
+
 def test_the_sampler_time_of_an_earlier_report_stands_where_the_first_stage_is_gone(tmp_path):
     job = Job("diffusion_lac", "ves", "s_surface", 0, "ddim10")
     config = tmp_path / "jobs" / job.name / ".hydra" / "config.yaml"

@@ -267,6 +267,9 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
 
 
 RANKS = ("OA", "CA1", "CA2", "CA3", "CA4", "RL")
+#: Fig. 8/9's reference rows (not in the paper): the same jobs' proposer alone (the medoid of
+#: its K candidates, no critic), the scripted expert and random actions
+REFERENCES = ("proposer alone", "expert", "random")
 BAR_TITLES = {"return": "episode return",
               **{key.removeprefix("eval/"): label for key, label in CURVE_KEYS}}  # fmt: skip
 
@@ -275,31 +278,36 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     """Fig. 8/9: the full framework's selection executed at a fixed rank (OA: the lowest L,
     its own choice; CA1-CA4: the next ranks) and its actor alone (RL (LAC)) on the same
     held-out scenes: the episode return (minus the cost per AUV over the episode), SDR, SSN
-    and EC, mean ± std over seeds (``MAIN_SEA``, S-Surface)."""
+    and EC, mean ± std over seeds (``MAIN_SEA``, S-Surface); then, in grey and not in the
+    paper, the same jobs' :data:`REFERENCES` rows."""
     plt = _plt()
     metrics = ("return", "sdr_mbit", "ssn", "ec_w")
     jobs = [Job("diffusion_lac", MAIN_SEA, "s_surface", s) for s in seeds]
     rows = []
-    for policy in RANKS:
+    names = {"RL": "RL (LAC)", **{policy: f"{policy} (reference)" for policy in REFERENCES}}
+    for policy in RANKS + REFERENCES:
         cell = job_rows(root, jobs, policy, ("cost_mean", "decisions", "sdr_mbit", "ssn", "ec_w"))
         cell["return"] = -cell["cost_mean"] * cell["decisions"]
         cell["return_std"] = cell["cost_mean_std"] * cell["decisions"]
-        paper = {f"paper {m}": FIG9[policy].get(m, math.nan) for m in metrics[1:]}
-        rows.append({"policy": "RL (LAC)" if policy == "RL" else policy, **cell,
-                     "paper return (x 1e3)": FIG8_RETURN_E3[policy], **paper})  # fmt: skip
-    fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.2), squeeze=False)
+        paper = {f"paper {m}": FIG9.get(policy, {}).get(m, math.nan) for m in metrics[1:]}
+        rows.append({"policy": names.get(policy, policy), **cell,
+                     "paper return (x 1e3)": FIG8_RETURN_E3.get(policy, math.nan),
+                     **paper})  # fmt: skip
+    colours = ["C0"] * len(RANKS) + ["0.6"] * len(REFERENCES)
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.0 * len(metrics), 3.6), squeeze=False)
     for ax, metric in zip(axes[0], metrics, strict=True):
         ran = [r for r in rows if math.isfinite(r[metric])]
         # NaN (a row not run, the std of one seed) draws no bar and no error bar, not a 0
-        ax.bar([r["policy"] for r in rows], [r[metric] for r in rows],
-               yerr=[r[f"{metric}_std"] for r in rows], capsize=3)  # fmt: skip
+        ax.bar([r["policy"].removesuffix(" (reference)") for r in rows],
+               [r[metric] for r in rows], yerr=[r[f"{metric}_std"] for r in rows],
+               capsize=3, color=colours)  # fmt: skip
         if len(ran) < len(rows):
             ax.text(0.5, 0.5, "not run yet" if not ran else "–: not run yet",
                     ha="center", va="center", transform=ax.transAxes, color="0.5")  # fmt: skip
         if not ran:
             ax.set_yticks([])
         ax.set_title(BAR_TITLES[metric])
-        ax.tick_params(axis="x", labelrotation=45)
+        plt.setp(ax.get_xticklabels(), rotation=45, ha="right", rotation_mode="anchor")
     paths = [_save(fig, Path(out_dir) / "fig8_9.png")]
     return paths + write_table(
         out_dir,
@@ -315,7 +323,8 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         header=header + f"; sea {MAIN_SEA}; return = -cost per AUV summed over the episode "
         "(mean cost x decisions; the paper's return is on its own reward scale); the paper's "
         "SDR is in its own unit (MBit/s) of its link-rate formula (Fig. 9: no CA3 numbers, EC "
-        "for OA and CA4 only)",
+        "for OA and CA4 only); reference rows (not in the paper): the same jobs' proposer alone "
+        "(the medoid of its K candidates, no critic), scripted expert and random actions",
     )
 
 

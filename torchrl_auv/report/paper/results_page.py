@@ -62,7 +62,9 @@ SECTIONS: dict[str, tuple[str, str, tuple[str, ...], tuple[str, ...]]] = {
     "fig8_9": ("Fig. 8/9: OA, CA1-CA4 and RL (LAC)",
                "The full framework's selection executed at a fixed rank (OA: the Lyapunov "
                "critic's choice; CA1-CA4: the next ranks) and its actor alone, on the same "
-               "held-out scenes.", ("fig8_9.png",), ("fig8_9",)),
+               "held-out scenes; in grey, not in the paper, the same jobs' proposer alone (the "
+               "medoid of its K candidates, no critic), scripted expert and random actions.",
+               ("fig8_9.png",), ("fig8_9",)),
     "fig10": ("Fig. 10: the Lyapunov value for fixed stability weights",
               "The executed action's Lyapunov value along held-out episodes, alpha in {0.05, "
               "0.1, 0.25, 0.5} (softplus form, no advisor); mean and band over episodes and "
