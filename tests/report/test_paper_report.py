@@ -39,6 +39,10 @@ def _fake_job(root, job: Job) -> None:
                                   for step in (0, 100, 200)
                                   for key in ("cost_mean", "sdr_mbit", "ssn", "ec_w")]  # fmt: skip
     (folder / "eval_curve.csv").write_text("\n".join(lines) + "\n")
+    train = ["step,key,value"] + [f"{step},train/cost_mean,{step / 1000 + job.seed}"
+                                  for step in range(1000, 10_001, 1000)]  # fmt: skip
+    train += [f"{step},train/episode_ssn,{job.seed}" for step in (3000, 8000)]
+    (folder / "train_curve.csv").write_text("\n".join(train) + "\n")
     trace = ["decision,mean,std,episodes"] + [f"{t},{10 - t + job.seed},1.0,4" for t in range(5)]
     (folder / "lyapunov_trace.csv").write_text("\n".join(trace) + "\n")
 
@@ -200,6 +204,29 @@ def test_fig7_reads_the_curves_of_finished_jobs_only(root):
     point = next(r for r in curve if r["sea_state"] == "es" and r["framework"] == "RL (SAC)"
                  and r["metric"] == "eval/ssn" and r["frames"] == 200)  # fmt: skip
     assert point["runs"] == 2 and point["value"] == pytest.approx(2.5)  # seeds 0 and 1
+
+
+def test_fig7_training_curves_bin_the_collected_batches_then_pool_the_seeds(root):
+    """The training-time curves (``train_curve.csv``: the collected batches, exploration on)
+    in 5,000-frame bins: each seed's points in a bin averaged, then mean ± std over seeds."""
+    (root / "jobs" / Job("sac", "es", "s_surface", 2).name / "eval.csv").unlink()  # running
+    paths = write_report(root, ["fig7"], seeds=(0, 1, 2), budget="quick")
+    assert {"fig7.png", "fig7_training.png", "fig7_training.json"} <= {p.name for p in paths}
+    rows = json.loads((root / "report/fig7/fig7_training.json").read_text())["rows"]
+
+    def point(*where):  # sea, framework, metric, frames
+        keys = ("sea_state", "framework", "metric", "frames")
+        return next(r for r in rows if tuple(r[k] for k in keys) == where)
+
+    # frames 1000-5000 of seed s: values 1..5 + s, their mean 3 + s; over seeds 0-2: 4 ± 1
+    first = point("ideal", "Diffusion+RL", "train/cost_mean", 5000)
+    assert first["runs"] == 3 and first["value"] == pytest.approx(4.0)
+    assert first["value_std"] == pytest.approx(1.0)
+    assert point("ideal", "Diffusion+RL", "train/cost_mean", 10_000)["value"] == pytest.approx(9.0)
+    # SSN at 3,000 and 8,000 frames: one point per bin; the running job's seed is left out
+    ssn = point("es", "RL (SAC)", "train/episode_ssn", 10_000)
+    assert ssn["runs"] == 2 and ssn["value"] == pytest.approx(0.5)
+    assert not [r for r in rows if r["frames"] not in (5000, 10_000)]
 
 
 def test_the_papers_rate_formula_inflates_the_experts_data(tmp_path):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
+import statistics
 from collections.abc import Sequence
 from fnmatch import fnmatch
 from pathlib import Path
@@ -198,6 +199,12 @@ def _plot_fig5_6(paths: list, labels: Sequence[str], out_dir: Path) -> list[Path
 
 CURVE_KEYS = (("eval/cost_mean", "cost per AUV-decision"), ("eval/sdr_mbit", "SDR (Mbit)"),
               ("eval/ssn", "SSN"), ("eval/ec_w", "EC (W)"))  # fmt: skip
+#: the training-time curves (``train_curve.csv``: the collected batches, exploration on; the
+#: env logs no episode EC) and the width of their bins (frames)
+TRAIN_CURVE_KEYS = (("train/cost_mean", "cost per AUV-decision"),
+                    ("train/episode_sdr", "SDR (Mbit) per episode"),
+                    ("train/episode_ssn", "SSN per episode"))  # fmt: skip
+TRAIN_BIN_FRAMES = 5000
 
 
 def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
@@ -207,20 +214,62 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
     legend, "not run yet" on a panel without any. The paper plots the return: here its
     per-decision form, the cost per AUV-decision (lower is better). Only finished jobs
     (``eval.csv`` written) are read, so the figure is the same wherever the results store
-    is."""
+    is.
+
+    Beside it, ``fig7_training``: the curves of the training itself (``train_curve.csv``, as
+    the paper's Fig. 7 plots its training episodes): the collected batches' cost per
+    AUV-decision and the SDR and SSN of the episodes that ended in them, exploration on,
+    each seed's points averaged in bins of :data:`TRAIN_BIN_FRAMES` frames (the episodes
+    end irregularly), then mean and band over seeds."""
+    written = []
+    for name, file, keys, bins, what in (
+        ("fig7", "eval_curve.csv", CURVE_KEYS, None, "evaluation curves"),
+        ("fig7_training", "train_curve.csv", TRAIN_CURVE_KEYS, TRAIN_BIN_FRAMES,
+         f"training curves, not on held-out scenes: the collected training batches, "
+         f"exploration on, in {TRAIN_BIN_FRAMES:,}-frame bins"),
+    ):  # fmt: skip
+        fig, rows = _curve_panels(root, seeds, file, keys, bins)
+        written.append(_save(fig, Path(out_dir) / f"{name}.png"))
+        written += write_table(
+            out_dir,
+            name,
+            rows,
+            ["sea_state", "framework", "metric", "frames", "runs", "value"],
+            header=header + f"; {what}, mean ± std over seeds",
+        )
+    return written
+
+
+def _binned(run: dict[int, float], width: int | None) -> dict[int, float]:
+    """``{step: value}`` averaged in bins of ``width`` frames, each named by its end (steps
+    1..width go to ``width``); ``None``: as it is."""
+    if width is None:
+        return run
+    bins: dict[int, list[float]] = {}
+    for step, value in run.items():
+        bins.setdefault(-(-step // width) * width, []).append(value)
+    return {step: statistics.fmean(values) for step, values in bins.items()}
+
+
+def _curve_panels(root: Path, seeds: Sequence[int], file: str, keys, width: int | None):
+    """A (metric x sea) grid of curves of the finished jobs' ``file`` for the Fig. 7
+    frameworks: mean and band over seeds at each step (bins of ``width`` frames). Returns
+    the figure and its rows."""
     plt = _plt()
-    fig, axes = plt.subplots(len(CURVE_KEYS), len(SEAS), figsize=(4.2 * len(SEAS), 9),
+    fig, axes = plt.subplots(len(keys), len(SEAS), figsize=(4.2 * len(SEAS), 2.25 * len(keys)),
                              squeeze=False, sharex="col")  # fmt: skip
     colours = dict(zip(("sac", "diffusion_rl", "diffusion_lac"), ("C0", "C1", "C2"), strict=True))
     rows = []
     for j, sea in enumerate(SEAS):
         for framework, colour in colours.items():
-            curves = [Path(root) / "jobs" / Job(framework, sea, "s_surface", s).name
-                      / "eval_curve.csv" for s in seeds]  # fmt: skip
+            curves = [Path(root) / "jobs" / Job(framework, sea, "s_surface", s).name / file
+                      for s in seeds]  # fmt: skip
             # finished jobs only: a running job's curve stops short (and is not stored)
-            curves = [read_curve(c) for c in curves if (c.parent / "eval.csv").exists()]
-            for i, (key, label) in enumerate(CURVE_KEYS):
-                runs = [dict(zip(*c[key], strict=True)) for c in curves if key in c]
+            curves = [read_curve(c) for c in curves
+                      if c.exists() and (c.parent / "eval.csv").exists()]  # fmt: skip
+            for i, (key, label) in enumerate(keys):
+                runs = [_binned(dict(zip(*c[key], strict=True)), width) for c in curves
+                        if key in c]  # fmt: skip
                 axes[i, 0].set_ylabel(label)
                 if not runs:
                     continue
@@ -256,14 +305,7 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
                 ax.set_yticks([])
                 ax.text(0.5, 0.5, "not run yet", ha="center", va="center",
                         transform=ax.transAxes, color="0.5")  # fmt: skip
-    paths = [_save(fig, Path(out_dir) / "fig7.png")]
-    return paths + write_table(
-        out_dir,
-        "fig7",
-        rows,
-        ["sea_state", "framework", "metric", "frames", "runs", "value"],
-        header=header + "; evaluation curves, mean ± std over seeds",
-    )
+    return fig, rows
 
 
 RANKS = ("OA", "CA1", "CA2", "CA3", "CA4", "RL")

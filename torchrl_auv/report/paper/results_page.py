@@ -45,7 +45,10 @@ SECTIONS: dict[str, tuple[str, str, tuple[str, ...], tuple[str, ...]]] = {
     "fig7": ("Fig. 7: learning curves",
              "The policy being trained, evaluated deterministically on held-out scenes of its "
              "sea during training: cost per AUV-decision (the paper plots the return), SDR, SSN "
-             "and EC; mean and band (± one std) over seeds.", ("fig7.png",), ()),
+             "and EC; mean and band (± one std) over seeds. Second, as the paper's Fig. 7 plots "
+             "its training episodes: the training itself (the collected batches, exploration "
+             "on, not held-out scenes): cost per AUV-decision and the SDR and SSN of the "
+             "episodes that ended, in 5,000-frame bins.", ("fig7.png", "fig7_training.png"), ()),
     "table2": ("Table II: controllers x seas",
                "Diffusion+RL and Diffusion+RL (LAC) with each low-level controller in ES and "
                "VES, at the end of training, on held-out scenes.", (), ("table2",)),
