@@ -221,8 +221,9 @@ def test_a_reduced_grid_runs_end_to_end(tmp_path):
     rows = json.loads((report / "fig8_9" / "fig8_9.json").read_text())["rows"]
     with open(tmp_path / "jobs/diffusion_lac/ves/s_surface/seed0/eval.csv", newline="") as f:
         own = {row["policy"]: row for row in csv.DictReader(f)}
+    assert len(rows) == 9  # OA, CA1-CA4, RL (LAC); the proposer alone, expert, random
     for row in rows:
-        policy = "RL" if row["policy"] == "RL (LAC)" else row["policy"]
+        policy = "RL" if row["policy"] == "RL (LAC)" else row["policy"].removesuffix(" (reference)")
         assert row["runs"] == 1
         assert row["ssn"] == pytest.approx(float(own[policy]["ssn"]))
     # a second run finds every job finished and only writes the report again
