@@ -70,6 +70,7 @@ def test_sittings_at_the_same_time_count_their_hours_once():
     assert math.isclose(sitting_hours(inside), 3.0)
     overlapping = [sitting("02:00", "05:00"), sitting("01:00", "03:00"), sitting("06:00", "07:00")]
     assert math.isclose(sitting_hours(overlapping), 5.0)
+    assert sitting_hours([sitting("03:00", "02:00")]) == 0.0  # an end before its start
     assert math.isclose(sitting_hours([*overlapping, {"start": "2026-12-05T00:00:00+00:00",
                                                       "end": None}]), 5.0)  # fmt: skip
 

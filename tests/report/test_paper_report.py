@@ -229,6 +229,34 @@ def test_fig7_training_curves_bin_the_collected_batches_then_pool_the_seeds(root
     assert not [r for r in rows if r["frames"] not in (5000, 10_000)]
 
 
+def test_fig7_without_training_curves_keeps_its_evaluation_curves(root):
+    """A finished job without ``train_curve.csv`` (written before the file existed): no
+    training curve of it, the evaluation curves as they were, no error."""
+    write_report(root, ["fig7"], seeds=(0, 1, 2), budget="quick")
+    before = (root / "report/fig7/fig7.json").read_text()
+    (root / "jobs" / Job("sac", "es", "s_surface", 2).name / "train_curve.csv").unlink()
+    write_report(root, ["fig7"], seeds=(0, 1, 2), budget="quick")
+    assert (root / "report/fig7/fig7.json").read_text() == before
+    rows = json.loads((root / "report/fig7/fig7_training.json").read_text())["rows"]
+    sac = [r for r in rows if (r["sea_state"], r["framework"]) == ("es", "RL (SAC)")]
+    assert sac and all(r["runs"] == 2 for r in sac)
+
+
+def test_a_partial_last_bin_is_named_by_the_jobs_last_frame(tmp_path):
+    """A job of 7,000 frames: its second bin holds 6,000-7,000 and stands at 7,000, not at
+    10,000 (frames never trained)."""
+    job = Job("sac", "ideal", "s_surface", 0)
+    folder = tmp_path / "jobs" / job.name
+    folder.mkdir(parents=True)
+    (folder / "eval.csv").write_text("sea_state,policy\n")
+    (folder / "eval_curve.csv").write_text("step,key,value\n0,eval/cost_mean,1.0\n")
+    lines = [f"{step},train/cost_mean,{step / 1000}" for step in range(1000, 7001, 1000)]
+    (folder / "train_curve.csv").write_text("step,key,value\n" + "\n".join(lines) + "\n")
+    write_report(tmp_path, ["fig7"], seeds=(0,), budget="quick")
+    rows = json.loads((tmp_path / "report/fig7/fig7_training.json").read_text())["rows"]
+    assert [(r["frames"], r["value"]) for r in rows] == [(5000, 3.0), (7000, 6.5)]
+
+
 def test_the_papers_rate_formula_inflates_the_experts_data(tmp_path):
     """The rate-model table: the same expert on the same scenes delivers more data with the
     paper's formula (10^SNR instead of 10^(SNR/10)) than with the Shannon rate."""

@@ -77,7 +77,8 @@ def write_lyapunov_trace(cfg: Mapping, run_dir: str | Path, policy) -> Path:
     ``cfg.eval.seed``, ``cfg.eval.steps`` decisions, deterministic) with ``policy`` and write
     ``run_dir/lyapunov_trace.csv``: ``decision, mean, std, episodes``. The proposer's noise
     draws from torch's generator seeded with ``cfg.eval.seed`` (forked: restored after), as
-    the evaluation rows do: a resumed run writes the trace an uninterrupted one does.
+    the evaluation rows do: the same policy writes the same trace whatever the generator's
+    state before (a resumed run's, say).
     Returns its path."""
     from torchrl_auv.training import held_out_env
 

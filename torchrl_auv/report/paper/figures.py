@@ -217,18 +217,22 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
     is.
 
     Beside it, ``fig7_training``: the curves of the training itself (``train_curve.csv``, as
-    the paper's Fig. 7 plots its training episodes): the collected batches' cost per
-    AUV-decision and the SDR and SSN of the episodes that ended in them, exploration on,
-    each seed's points averaged in bins of :data:`TRAIN_BIN_FRAMES` frames (the episodes
-    end irregularly), then mean and band over seeds."""
+    the paper's Fig. 7 plots its training episodes), exploration on: each collected batch's
+    cost per AUV-decision and, where episodes ended in it, their mean SDR and SSN; each
+    seed's batches averaged in bins of :data:`TRAIN_BIN_FRAMES` frames (episodes end
+    irregularly), then mean and band over seeds."""
     written = []
-    for name, file, keys, bins, what in (
-        ("fig7", "eval_curve.csv", CURVE_KEYS, None, "evaluation curves"),
-        ("fig7_training", "train_curve.csv", TRAIN_CURVE_KEYS, TRAIN_BIN_FRAMES,
-         f"training curves, not on held-out scenes: the collected training batches, "
-         f"exploration on, in {TRAIN_BIN_FRAMES:,}-frame bins"),
+    training = (f"training curves, not on held-out scenes: the collected batches, exploration "
+                f"on, averaged in {TRAIN_BIN_FRAMES:,}-frame bins (frames: a bin's end, or the "
+                "job's last)")  # fmt: skip
+    for name, file, keys, bins, what, title in (
+        ("fig7", "eval_curve.csv", CURVE_KEYS, None, "evaluation curves", None),
+        ("fig7_training", "train_curve.csv", TRAIN_CURVE_KEYS, TRAIN_BIN_FRAMES, training,
+         "Training curves: the collected batches, exploration on (not held-out scenes)"),
     ):  # fmt: skip
         fig, rows = _curve_panels(root, seeds, file, keys, bins)
+        if title:
+            fig.suptitle(title)
         written.append(_save(fig, Path(out_dir) / f"{name}.png"))
         written += write_table(
             out_dir,
@@ -240,14 +244,15 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
     return written
 
 
-def _binned(run: dict[int, float], width: int | None) -> dict[int, float]:
+def _binned(run: dict[int, float], width: int | None, last: int) -> dict[int, float]:
     """``{step: value}`` averaged in bins of ``width`` frames, each named by its end (steps
-    1..width go to ``width``); ``None``: as it is."""
+    1..width go to ``width``, step 0 to 0) or by ``last`` (the job's last frame), whichever
+    is less; ``None``: as it is."""
     if width is None:
         return run
     bins: dict[int, list[float]] = {}
     for step, value in run.items():
-        bins.setdefault(-(-step // width) * width, []).append(value)
+        bins.setdefault(min(-(-step // width) * width, last), []).append(value)
     return {step: statistics.fmean(values) for step, values in bins.items()}
 
 
@@ -268,8 +273,9 @@ def _curve_panels(root: Path, seeds: Sequence[int], file: str, keys, width: int 
             curves = [read_curve(c) for c in curves
                       if c.exists() and (c.parent / "eval.csv").exists()]  # fmt: skip
             for i, (key, label) in enumerate(keys):
-                runs = [_binned(dict(zip(*c[key], strict=True)), width) for c in curves
-                        if key in c]  # fmt: skip
+                runs = [_binned(dict(zip(*c[key], strict=True)), width,
+                                max(max(steps) for steps, _ in c.values()))
+                        for c in curves if key in c]  # fmt: skip
                 axes[i, 0].set_ylabel(label)
                 if not runs:
                     continue
@@ -310,7 +316,8 @@ def _curve_panels(root: Path, seeds: Sequence[int], file: str, keys, width: int 
 
 RANKS = ("OA", "CA1", "CA2", "CA3", "CA4", "RL")
 #: Fig. 8/9's reference rows (not in the paper): the same jobs' proposer alone (the medoid of
-#: its K candidates, no critic), the scripted expert and random actions
+#: its own ``proposer.alone_candidates`` draws, 10 in the paper presets, where the selection
+#: ranks K = 5; no critic), the scripted expert and random actions
 REFERENCES = ("proposer alone", "expert", "random")
 BAR_TITLES = {"return": "episode return",
               **{key.removeprefix("eval/"): label for key, label in CURVE_KEYS}}  # fmt: skip
@@ -326,6 +333,8 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     metrics = ("return", "sdr_mbit", "ssn", "ec_w")
     jobs = [Job("diffusion_lac", MAIN_SEA, "s_surface", s) for s in seeds]
     rows = []
+    from matplotlib.patches import Patch
+
     names = {"RL": "RL (LAC)", **{policy: f"{policy} (reference)" for policy in REFERENCES}}
     for policy in RANKS + REFERENCES:
         cell = job_rows(root, jobs, policy, ("cost_mean", "decisions", "sdr_mbit", "ssn", "ec_w"))
@@ -350,6 +359,8 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
             ax.set_yticks([])
         ax.set_title(BAR_TITLES[metric])
         plt.setp(ax.get_xticklabels(), rotation=45, ha="right", rotation_mode="anchor")
+    grey = Patch(color="0.6", label="reference (not in the paper)")
+    fig.legend(handles=[grey], fontsize="small", loc="lower left", frameon=False)
     paths = [_save(fig, Path(out_dir) / "fig8_9.png")]
     return paths + write_table(
         out_dir,
@@ -366,7 +377,8 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         "(mean cost x decisions; the paper's return is on its own reward scale); the paper's "
         "SDR is in its own unit (MBit/s) of its link-rate formula (Fig. 9: no CA3 numbers, EC "
         "for OA and CA4 only); reference rows (not in the paper): the same jobs' proposer alone "
-        "(the medoid of its K candidates, no critic), scripted expert and random actions",
+        "(the medoid of its proposer.alone_candidates draws, no critic), scripted expert and "
+        "random actions",
     )
 
 

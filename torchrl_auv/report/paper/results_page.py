@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from torchrl_auv.report.paper.claims import OUTCOMES, judge
+from torchrl_auv.report.paper.figures import TRAIN_BIN_FRAMES
 from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.progress import grid_status, sitting_hours
 from torchrl_auv.report.paper.tables import LABELS
@@ -47,8 +48,9 @@ SECTIONS: dict[str, tuple[str, str, tuple[str, ...], tuple[str, ...]]] = {
              "sea during training: cost per AUV-decision (the paper plots the return), SDR, SSN "
              "and EC; mean and band (± one std) over seeds. Second, as the paper's Fig. 7 plots "
              "its training episodes: the training itself (the collected batches, exploration "
-             "on, not held-out scenes): cost per AUV-decision and the SDR and SSN of the "
-             "episodes that ended, in 5,000-frame bins.", ("fig7.png", "fig7_training.png"), ()),
+             "on, not held-out scenes): each batch's cost per AUV-decision and the mean SDR and "
+             f"SSN of the episodes that ended in it, averaged in {TRAIN_BIN_FRAMES:,}-frame "
+             "bins.", ("fig7.png", "fig7_training.png"), ()),
     "table2": ("Table II: controllers x seas",
                "Diffusion+RL and Diffusion+RL (LAC) with each low-level controller in ES and "
                "VES, at the end of training, on held-out scenes.", (), ("table2",)),
@@ -66,7 +68,8 @@ SECTIONS: dict[str, tuple[str, str, tuple[str, ...], tuple[str, ...]]] = {
                "The full framework's selection executed at a fixed rank (OA: the Lyapunov "
                "critic's choice; CA1-CA4: the next ranks) and its actor alone, on the same "
                "held-out scenes; in grey, not in the paper, the same jobs' proposer alone (the "
-               "medoid of its K candidates, no critic), scripted expert and random actions.",
+               "medoid of its own draws, 10 in the paper presets where the selection ranks "
+               "K = 5; no critic), scripted expert and random actions.",
                ("fig8_9.png",), ("fig8_9",)),
     "fig10": ("Fig. 10: the Lyapunov value for fixed stability weights",
               "The executed action's Lyapunov value along held-out episodes, alpha in {0.05, "
@@ -177,15 +180,16 @@ def _compute_hours(root: Path, jobs: Sequence[Job]) -> tuple[float, int]:
 
 
 def _wall_time(sittings: Sequence[dict]) -> str:
-    """The sittings' wall time: each from its start to its last finished job."""
+    """The sittings' wall time: each from its start to its last finished job, sittings at the
+    same time counted once."""
     if not sittings:
         return "not recorded (no results store)"
     hours = sitting_hours(sittings)
     finished = sum(s.get("jobs_finished", 0) for s in sittings)
     plural = "s" if len(sittings) != 1 else ""
     return (f"{hours:.1f} h over {len(sittings)} sitting{plural} (each from its start to its last "
-            f"finished job; {finished} jobs finished in them, the rest before the record "
-            "began)")  # fmt: skip
+            f"finished job, hours at the same time counted once; {finished} jobs finished in "
+            "them, the rest before the record began)")  # fmt: skip
 
 
 def _time_left(root: Path, jobs: Sequence[Job], sittings: Sequence[dict]) -> str:
