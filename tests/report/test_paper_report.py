@@ -103,6 +103,23 @@ def test_figures_and_their_numbers(root):
     assert run["budget"] == "quick" and run["seeds"] == [0, 1, 2]
 
 
+def test_the_advisor_table_counts_the_spec_changes_each_job_applied(root):
+    """The advisor ablation says how often each advisor changed the spec (its decision log,
+    ``advisor.jsonl``): a model that never changes it trains the fixed spec's job."""
+    for seed, applied in ((0, [False, True]), (1, [True, True, False]), (2, [False])):
+        log = root / "jobs" / Job("diffusion_lac", "ves", "s_surface", seed).name / "advisor.jsonl"
+        log.write_text("".join(json.dumps({"frame": 1000 * i, "applied": a}) + "\n"
+                               for i, a in enumerate(applied)))  # fmt: skip
+    write_report(root, ["advisor"], seeds=(0, 1, 2), budget="paper")
+    rows = json.loads((root / "report/advisor/advisor.json").read_text())["rows"]
+    rules, fixed, llm = rows
+    assert rules["spec_changes"] == 1.0 and rules["spec_changes_std"] == 1.0  # 1, 2, 0
+    assert rules["consultations"] == 2.0  # 2, 3, 1
+    assert math.isnan(fixed["spec_changes"]) and llm["runs"] == 0  # no log; not run
+    header = (root / "report/advisor/advisor.md").read_text().splitlines()[2]
+    assert "| consultations | spec_changes |" in header
+
+
 def test_an_unknown_experiment_is_refused_before_writing(tmp_path):
     with pytest.raises(ValueError, match="fig99"):
         write_report(tmp_path, ["fig99"], seeds=(0,), budget="quick")

@@ -80,7 +80,10 @@ SECTIONS: dict[str, tuple[str, str, tuple[str, ...], tuple[str, ...]]] = {
               ("fig11_lyapunov", "fig11")),
     "advisor": ("Beyond the paper: the advisor ablation",
                 "A fixed Lyapunov spec against the rule-based advisor (the presets) and, when "
-                "run, an OpenAI-compatible model.", (), ("advisor",)),
+                "run, an OpenAI-compatible model (the local SmolLM2-135M under llama.cpp). "
+                "Consultations and spec changes per job come from each job's decision log "
+                "(advisor.jsonl): an advisor that changes nothing trains the fixed spec's job.",
+                (), ("advisor",)),
     "lyapunov_cost": ("Beyond the paper: the Lyapunov cost",
                       "The Lyapunov critic trained on the task cost against the stability "
                       "cost (the presets; recipes/README.md explains why).", (),

@@ -25,7 +25,7 @@ from torchrl_auv.report.paper.grid import (
     MAIN_SEA,
     Job,
 )
-from torchrl_auv.report.paper.output import first_stage_folder, job_rows, write_table
+from torchrl_auv.report.paper.output import first_stage_folder, job_rows, mean_std, write_table
 from torchrl_auv.report.paper.published import TABLE2, TABLE3
 
 __all__ = ["ablation_tables", "table2", "table3", "table3_fixed"]
@@ -143,7 +143,8 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
                     experiment: str) -> list[Path]:  # fmt: skip
     """Beyond the paper, the full framework in ``MAIN_SEA``: ``advisor`` (the rule-based
     advisor against the spec fixed at the presets' start and, when the ``advisor_llm``
-    experiment ran, a model behind ``advisor.base_url``), ``lyapunov_cost`` (the stability
+    experiment ran, a model behind ``advisor.base_url``; with each job's consultations and
+    spec changes applied, from its ``advisor.jsonl``), ``lyapunov_cost`` (the stability
     cost against the paper's task cost), ``sampler`` (50 DDPM against 10 DDIM denoising
     steps; the proposer's sampling seconds per decision too), ``fig10`` / ``fig11`` (each
     fixed weight and form)."""
@@ -161,6 +162,10 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
     }[experiment]  # fmt: skip
     rows = _variants(root, seeds, variants)
     extra = []
+    if experiment == "advisor":
+        for row, (_, variant, _) in zip(rows, variants, strict=True):
+            row.update(_advisor_log(root, seeds, variant))
+        extra = ["consultations", "spec_changes"]
     if experiment == "sampler":
         for row, (_, variant, _) in zip(rows, variants, strict=True):
             row.update(_sampling_time(root, variant, seeds[0], earlier=out_dir / "sampler.json"))
@@ -172,6 +177,24 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
         ["variant", "runs", *METRICS, *extra],
         header=header + f"; Diffusion+RL (LAC), sea {MAIN_SEA}, S-Surface",
     )
+
+
+def _advisor_log(root: Path, seeds: Sequence[int], variant: str) -> dict[str, float]:
+    """Over the finished jobs of ``variant`` with a decision log (``advisor.jsonl``): the
+    consultations and the spec changes applied per job, mean and std over seeds (NaN where
+    no job has a log)."""
+    counts = []
+    for seed in seeds:
+        folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed,
+                                           variant).name  # fmt: skip
+        log = folder / "advisor.jsonl"
+        if (folder / "eval.csv").exists() and log.exists():
+            records = [json.loads(line) for line in log.read_text().splitlines() if line]
+            counts.append((len(records), sum(bool(r.get("applied")) for r in records)))
+    out = {}
+    for i, key in enumerate(("consultations", "spec_changes")):
+        out[key], out[f"{key}_std"] = mean_std([float(c[i]) for c in counts])
+    return out
 
 
 def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5, *,
