@@ -115,6 +115,9 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     # every claim has its verdict row, and an experiment without outputs says so
     assert text.count("| **not run yet** |") == len(CLAIMS)
     assert "Not in this report" in text
+    # the RL stage against its prior: no Diffusion+RL job among these
+    assert "## The RL stage against its own prior" in text
+    assert "no Diffusion+RL or Diffusion+RL (LAC) job has finished" in text
 
 
 def test_rank_returns_and_the_convergence_point_are_the_pages_own(tmp_path):

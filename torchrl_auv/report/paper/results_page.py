@@ -29,6 +29,7 @@ from pathlib import Path
 from torchrl_auv.report.paper.claims import OUTCOMES, judge
 from torchrl_auv.report.paper.figures import TRAIN_BIN_FRAMES
 from torchrl_auv.report.paper.grid import Job
+from torchrl_auv.report.paper.prior import format_prior, prior_counts
 from torchrl_auv.report.paper.progress import grid_status, sitting_hours
 from torchrl_auv.report.paper.tables import LABELS
 
@@ -304,6 +305,17 @@ def _section(experiment: str, report: Path, page_dir: Path, figures: Path) -> li
     return lines
 
 
+PRIOR_TEXT = (
+    "Our observation, not a claim of the paper: each finished Diffusion+RL and Diffusion+RL "
+    "(LAC) job (the ablations' variants included) against its own proposer alone on the same "
+    "held-out scenes (`torchrl_auv.report.paper.prior`; cost per AUV-decision, lower is "
+    "better). At frame 0 the critic and the actor are untrained, so the selection's pick "
+    "among the K = 5 candidates is arbitrary, and the candidates vary widely in quality "
+    "(Fig. 8/9: the ranks); the proposer alone executes the medoid of its 10 draws, which "
+    "keeps clear of the outliers. Fig. 7's training curves show the climb from there."
+)
+
+
 def write_results_page(
     root: str | Path,
     page: str | Path,
@@ -352,6 +364,12 @@ def write_results_page(
         "reproduced* when none holds and one or more is reversed, *inconclusive* when none is "
         "beyond the noise either way, *partly* otherwise. The comparisons and their numbers "
         "are listed at the end.",
+        "",
+        "## The RL stage against its own prior",
+        "",
+        PRIOR_TEXT,
+        "",
+        *format_prior(prior_counts(root, jobs)),
         "",
         "## Why our numbers and the paper's part",
         "",

@@ -1,0 +1,48 @@
+"""The RL stage against its own prior: each finished Diffusion+RL / Diffusion+RL (LAC) job's
+evaluation at frame 0 and at the end against the same job's proposer alone, counted."""
+
+from __future__ import annotations
+
+from torchrl_auv.report.paper.grid import Job
+from torchrl_auv.report.paper.prior import format_prior, prior_counts
+
+
+def _job(root, job, *, start, end, end_ssn, alone=(1.5, 10.0), curve=True):
+    folder = root / "jobs" / job.name
+    folder.mkdir(parents=True)
+    (folder / "eval.csv").write_text(
+        "sea_state,policy,cost_mean,ssn\n"
+        f"{job.sea},{job.framework},{end},{end_ssn}\n"
+        f"{job.sea},proposer alone,{alone[0]},{alone[1]}\n"
+    )
+    if curve:
+        (folder / "eval_curve.csv").write_text(
+            f"step,key,value\n0,eval/cost_mean,{start}\n25000,eval/cost_mean,{end}\n"
+        )
+
+
+def test_each_job_is_compared_with_its_own_proposer_alone(tmp_path):
+    rl = [Job("diffusion_rl", "es", "s_surface", s) for s in (0, 1)]
+    lac = [Job("diffusion_lac", "ves", "pid", 0), Job("diffusion_lac", "ves", "s_surface", 0,
+                                                       "fixed-softplus-alpha0.1")]  # fmt: skip
+    _job(tmp_path, rl[0], start=6.0, end=1.2, end_ssn=8.0)  # starts worse, ends cheaper, fewer
+    _job(tmp_path, rl[1], start=1.4, end=1.6, end_ssn=12.0, alone=(1.5, 10.0))
+    _job(tmp_path, lac[0], start=5.0, end=1.4, end_ssn=9.0, curve=False)  # no frame-0 point
+    unfinished = Job("diffusion_lac", "ves", "smc", 0)  # no eval.csv: not counted
+    others = [Job("sac", "es", "s_surface", 0), Job("diffusion", "es", "s_surface", 0)]
+    counts = prior_counts(tmp_path, [*rl, *lac, unfinished, *others])
+    assert counts["diffusion_rl"] == {"jobs": 2, "start_worse": (1, 2), "end_cheaper": (1, 2),
+                                      "end_fewer_ssn": (1, 2)}  # fmt: skip
+    assert counts["diffusion_lac"] == {"jobs": 1, "start_worse": (0, 0), "end_cheaper": (1, 1),
+                                       "end_fewer_ssn": (1, 1)}  # fmt: skip
+    text = "\n".join(format_prior(counts))
+    assert "| costs more than the proposer alone at frame 0" in text
+    assert "| 1 of 2 | 0 of 0 |" in text and "| 1 of 2 | 1 of 1 |" in text
+
+
+def test_no_finished_rl_stage_says_so(tmp_path):
+    counts = prior_counts(tmp_path, [Job("diffusion_rl", "es", "s_surface", 0)])
+    assert counts["diffusion_rl"]["jobs"] == 0
+    assert "no Diffusion+RL or Diffusion+RL (LAC) job has finished" in "\n".join(
+        format_prior(counts)
+    )
