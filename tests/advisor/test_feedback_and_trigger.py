@@ -228,3 +228,25 @@ def test_consultation_and_failure_counts_survive_a_checkpoint(tmp_path):
     third = trigger()
     third.load_state_dict({"last_frame": 5})
     assert third.consultations == 0 and third.failures == {} and third.reason(5, None) is None
+
+
+def test_the_decisions_in_force_drop_those_a_resume_rolled_back(tmp_path):
+    """A decision log across sessions: the consultations logged after the checkpoint a run
+    resumed from were rolled back with their session; the resumed session's stand."""
+    from torchrl_auv.advisor import decisions_in_force
+
+    log = tmp_path / "advisor.jsonl"
+    records = [{"frame": 1000, "applied": False}, {"frame": 21000, "applied": True},
+               {"event": "restored", "last_consultation_frame": 1000, "consultations": 1},
+               {"frame": 21000, "applied": False}, {"frame": 43000, "applied": True},
+               {"event": "restored", "last_consultation_frame": 43000,
+                "consultations": 3}]  # fmt: skip
+    log.write_text("".join(json.dumps(r) + "\n" for r in records) + "\n")
+    kept = decisions_in_force(log)
+    assert [(r["frame"], r["applied"]) for r in kept] == [(1000, False), (21000, False),
+                                                         (43000, True)]  # fmt: skip
+    # a restore before any consultation (-1) rolls back every earlier one
+    with log.open("a") as f:
+        f.write(json.dumps({"event": "restored", "last_consultation_frame": -1}) + "\n")
+    assert decisions_in_force(log) == []
+    assert decisions_in_force(tmp_path / "missing.jsonl") == []

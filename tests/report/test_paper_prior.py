@@ -22,22 +22,25 @@ def _job(root, job, *, start, end, end_ssn, alone=(1.5, 10.0), curve=True):
 
 
 def test_each_job_is_compared_with_its_own_proposer_alone(tmp_path):
-    rl = [Job("diffusion_rl", "es", "s_surface", s) for s in (0, 1)]
+    rl = [Job("diffusion_rl", "es", "s_surface", s) for s in (0, 1, 2)]
     lac = [Job("diffusion_lac", "ves", "pid", 0), Job("diffusion_lac", "ves", "s_surface", 0,
                                                        "fixed-softplus-alpha0.1")]  # fmt: skip
     _job(tmp_path, rl[0], start=6.0, end=1.2, end_ssn=8.0)  # starts worse, ends cheaper, fewer
     _job(tmp_path, rl[1], start=1.4, end=1.45, end_ssn=12.0, alone=(1.5, 10.0))
+    # within 1 % of the proposer alone's value: a tie, counted as compared but not as holding
+    _job(tmp_path, rl[2], start=1.51, end=1.495, end_ssn=9.95, alone=(1.5, 10.0))
     _job(tmp_path, lac[0], start=5.0, end=1.4, end_ssn=9.0, curve=False)  # no frame-0 point
+    _job(tmp_path, lac[1], start=9.0, end=1.0, end_ssn=1.0)  # a variant: left out
     unfinished = Job("diffusion_lac", "ves", "smc", 0)  # no eval.csv: not counted
     others = [Job("sac", "es", "s_surface", 0), Job("diffusion", "es", "s_surface", 0)]
     counts = prior_counts(tmp_path, [*rl, *lac, unfinished, *others])
-    assert counts["diffusion_rl"] == {"jobs": 2, "start_worse": (1, 2), "end_cheaper": (2, 2),
-                                      "end_fewer_ssn": (1, 2)}  # fmt: skip
+    assert counts["diffusion_rl"] == {"jobs": 3, "start_worse": (1, 3), "end_cheaper": (2, 3),
+                                      "end_fewer_ssn": (1, 3)}  # fmt: skip
     assert counts["diffusion_lac"] == {"jobs": 1, "start_worse": (0, 0), "end_cheaper": (1, 1),
                                        "end_fewer_ssn": (1, 1)}  # fmt: skip
     text = "\n".join(format_prior(counts))
     assert "| costs more than the proposer alone at frame 0" in text
-    assert "| 1 of 2 | 0 of 0 |" in text and "| 2 of 2 | 1 of 1 |" in text
+    assert "| 1 of 3 | 0 of 0 |" in text and "| 2 of 3 | 1 of 1 |" in text
 
 
 def test_no_finished_rl_stage_says_so(tmp_path):

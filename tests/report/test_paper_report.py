@@ -105,17 +105,33 @@ def test_figures_and_their_numbers(root):
 
 def test_the_advisor_table_counts_the_spec_changes_each_job_applied(root):
     """The advisor ablation says how often each advisor changed the spec (its decision log,
-    ``advisor.jsonl``): a model that never changes it trains the fixed spec's job."""
-    for seed, applied in ((0, [False, True]), (1, [True, True, False]), (2, [False])):
-        log = root / "jobs" / Job("diffusion_lac", "ves", "s_surface", seed).name / "advisor.jsonl"
-        log.write_text("".join(json.dumps({"frame": 1000 * i, "applied": a}) + "\n"
-                               for i, a in enumerate(applied)))  # fmt: skip
+    ``advisor.jsonl``, without what a resume rolled back): a model that never changes it
+    trains the fixed spec's job."""
+
+    def write_log(job, applied, *, restored=None):
+        lines = [{"frame": 1000 * i, "applied": a} for i, a in enumerate(applied)]
+        if restored is not None:  # resumed from a checkpoint whose last consultation is here
+            lines.append({"event": "restored", "last_consultation_frame": restored})
+        (root / "jobs" / job.name / "advisor.jsonl").write_text(
+            "".join(json.dumps(line) + "\n" for line in lines)
+        )
+
+    main = [Job("diffusion_lac", "ves", "s_surface", s) for s in (0, 1, 2)]
+    write_log(main[0], [False, True])
+    write_log(main[1], [True, True, False, True, True], restored=2000)  # the last two rolled back
+    write_log(main[2], [False])
+    fixed_job = Job("diffusion_lac", "ves", "s_surface", 0, "fixed-softplus-alpha0.1")
+    write_log(fixed_job, [False, False, False])  # the fixed backend logs, never applies
+    unfinished = Job("diffusion_lac", "ves", "s_surface", 1, "fixed-softplus-alpha0.1")
+    (root / "jobs" / unfinished.name / "eval.csv").unlink()
+    write_log(unfinished, [True])  # not finished: not counted
     write_report(root, ["advisor"], seeds=(0, 1, 2), budget="paper")
     rows = json.loads((root / "report/advisor/advisor.json").read_text())["rows"]
     rules, fixed, llm = rows
     assert rules["spec_changes"] == 1.0 and rules["spec_changes_std"] == 1.0  # 1, 2, 0
     assert rules["consultations"] == 2.0  # 2, 3, 1
-    assert math.isnan(fixed["spec_changes"]) and llm["runs"] == 0  # no log; not run
+    assert fixed["consultations"] == 3.0 and fixed["spec_changes"] == 0.0  # seed 0 alone
+    assert math.isnan(fixed["spec_changes_std"]) and llm["runs"] == 0  # one seed; not run
     header = (root / "report/advisor/advisor.md").read_text().splitlines()[2]
     assert "| consultations | spec_changes |" in header
 

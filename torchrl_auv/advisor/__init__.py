@@ -21,7 +21,7 @@ from torchrl_auv.advisor.feedback import TrainingFeedback, feedback_from_trainin
 from torchrl_auv.advisor.openai_compatible import STRATEGIES, OpenAICompatibleAdvisor
 from torchrl_auv.advisor.prompt import DECISION_SCHEMA, build_messages, json_from_text
 from torchrl_auv.advisor.rules import FORM_ORDER, RuleBasedAdvisor
-from torchrl_auv.advisor.trigger import AdvisorTrigger
+from torchrl_auv.advisor.trigger import AdvisorTrigger, decisions_in_force
 from torchrl_auv.objectives import LyapunovSpec
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "RuleBasedAdvisor",
     "TrainingFeedback",
     "build_messages",
+    "decisions_in_force",
     "feedback_from_training",
     "json_from_text",
     "validate_answer",

@@ -40,7 +40,7 @@ from torchrl_auv.advisor.rules import FORM_ORDER, OSCILLATION_HIGH, VIOLATION_HI
 
 log = logging.getLogger(__name__)
 
-__all__ = ["AdvisorTrigger"]
+__all__ = ["AdvisorTrigger", "decisions_in_force"]
 
 
 class AdvisorTrigger:
@@ -210,3 +210,33 @@ class AdvisorTrigger:
             self.logger.experiment.log(
                 {"advisor/decisions": wandb.Table(columns=columns, data=rows)}
             )
+
+
+def decisions_in_force(log_path: str | Path) -> list[dict[str, Any]]:
+    """The consultations of a decision log that stand, in order: at each ``"restored"`` line
+    those logged earlier with a frame after the checkpoint's last consultation are dropped
+    (rolled back with the session that made them). ``[]`` for a missing log.
+
+    Examples:
+        >>> import json, pathlib, tempfile
+        >>> log = pathlib.Path(tempfile.mkdtemp(), "advisor.jsonl")
+        >>> lines = [{"frame": 0}, {"frame": 500},
+        ...          {"event": "restored", "last_consultation_frame": 0}, {"frame": 600}]
+        >>> _ = log.write_text("".join(json.dumps(line) + "\\n" for line in lines))
+        >>> [r["frame"] for r in decisions_in_force(log)]
+        [0, 600]
+    """
+    path = Path(log_path)
+    if not path.exists():
+        return []
+    kept: list[dict[str, Any]] = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.strip():
+            continue
+        record = json.loads(line)
+        if record.get("event") == "restored":
+            last = int(record["last_consultation_frame"])
+            kept = [r for r in kept if int(r["frame"]) <= last]
+        elif "frame" in record:
+            kept.append(record)
+    return kept

@@ -2,9 +2,12 @@
 
 Every Diffusion+RL and Diffusion+RL (LAC) job starts from a pretrained proposer (its first
 stage) and evaluates that proposer acting alone on the same held-out scenes (the ``proposer
-alone`` row of its ``eval.csv``). :func:`prior_counts` compares each finished job with its
-own proposer alone: at frame 0 (the first point of ``eval_curve.csv``: critic and actor
-untrained) and at the end (the job's own row), counted per framework.
+alone`` row of its ``eval.csv``). :func:`prior_counts` compares each finished job of the
+grid's main cells (no variant: the ablations' variants share one proposer and would count it
+again) with its own proposer alone: at frame 0 (the first point of ``eval_curve.csv``, on
+the curve's ``eval.curve_envs`` scenes: critic and actor untrained) and at the end (the
+job's own row, on the same scenes as the proposer alone's), counted per framework. A
+difference counts when it exceeds :data:`MARGIN` of the proposer alone's value.
 
 Examples:
     >>> import pathlib, tempfile
@@ -32,6 +35,8 @@ from torchrl_auv.report.paper.tables import LABELS
 __all__ = ["FRAMEWORKS_WITH_PRIOR", "format_prior", "prior_counts"]
 
 FRAMEWORKS_WITH_PRIOR = ("diffusion_rl", "diffusion_lac")
+#: the relative difference a comparison needs to count (smaller ones are ties)
+MARGIN = 0.01
 #: count -> its row on the results page
 ROWS = {
     "start_worse": "costs more than the proposer alone at frame 0 (critic and actor untrained)",
@@ -49,29 +54,31 @@ def _frame0_cost(folder: Path) -> float:
 
 
 def prior_counts(root: str | Path, jobs: Sequence[Job]) -> dict[str, dict]:
-    """Per framework of :data:`FRAMEWORKS_WITH_PRIOR`: ``jobs`` (finished, with a ``proposer
-    alone`` row) and, per key of :data:`ROWS`, ``(yes, compared)``: the jobs where it holds
-    and those where both numbers exist (a job without a frame-0 evaluation is left out of
-    ``start_worse``). Cost per AUV-decision: lower is better."""
+    """Per framework of :data:`FRAMEWORKS_WITH_PRIOR`: ``jobs`` (finished, no variant, with a
+    ``proposer alone`` row) and, per key of :data:`ROWS`, ``(yes, compared)``: the jobs where
+    it holds by more than :data:`MARGIN` and those where both numbers exist (a job without a
+    frame-0 evaluation is left out of ``start_worse``). Cost per AUV-decision: lower is
+    better."""
     counts = {f: {"jobs": 0, **{key: (0, 0) for key in ROWS}} for f in FRAMEWORKS_WITH_PRIOR}
     for job in jobs:
-        if job.framework not in counts:
+        if job.framework not in counts or job.variant:
             continue
         rows = read_eval(root, job)
         if not rows or "proposer alone" not in rows or job.framework not in rows:
             continue
         own, alone = rows[job.framework], rows["proposer alone"]
-        tests = {
-            "start_worse": (_frame0_cost(Path(root) / "jobs" / job.name), alone["cost_mean"]),
-            "end_cheaper": (alone["cost_mean"], own["cost_mean"]),
-            "end_fewer_ssn": (alone["ssn"], own["ssn"]),
-        }  # (a, b): holds when a > b
+        cost, ssn = alone["cost_mean"], alone.get("ssn")
+        tests = {  # (a, b, the proposer alone's value): holds when a - b > MARGIN * |value|
+            "start_worse": (_frame0_cost(Path(root) / "jobs" / job.name), cost, cost),
+            "end_cheaper": (cost, own["cost_mean"], cost),
+            "end_fewer_ssn": (ssn, own.get("ssn"), ssn),
+        }
         cell = counts[job.framework]
         cell["jobs"] += 1
-        for key, (a, b) in tests.items():
+        for key, (a, b, value) in tests.items():
             if isinstance(a, float) and isinstance(b, float) and math.isfinite(a + b):
                 yes, compared = cell[key]
-                cell[key] = (yes + (a > b), compared + 1)
+                cell[key] = (yes + (a - b > MARGIN * abs(value)), compared + 1)
     return counts
 
 

@@ -307,12 +307,17 @@ def _section(experiment: str, report: Path, page_dir: Path, figures: Path) -> li
 
 PRIOR_TEXT = (
     "Our observation, not a claim of the paper: each finished Diffusion+RL and Diffusion+RL "
-    "(LAC) job (the ablations' variants included) against its own proposer alone on the same "
-    "held-out scenes (`torchrl_auv.report.paper.prior`; cost per AUV-decision, lower is "
-    "better). At frame 0 the critic and the actor are untrained, so the selection's pick "
-    "among the K = 5 candidates is arbitrary, and the candidates vary widely in quality "
-    "(Fig. 8/9: the ranks); the proposer alone executes the medoid of its 10 draws, which "
-    "keeps clear of the outliers. Fig. 7's training curves show the climb from there."
+    "(LAC) job of the grid's main cells (one per sea, controller and seed; the ablations' "
+    "variants share the VES S-Surface proposer and are left out) against its own proposer "
+    "alone (`torchrl_auv.report.paper.prior`; cost per AUV-decision, lower is better; a "
+    "difference counts when it exceeds 1 % of the proposer alone's). At the end both are "
+    "evaluated on the same held-out scenes (`eval.num_envs`, 4 in the paper presets); at "
+    "frame 0 the job's value is its evaluation curve's first point, on the curve's own "
+    "`eval.curve_envs` scenes (2). At frame 0 the critic and the actor are untrained, so the "
+    "selection's pick among the K = 5 candidates is arbitrary, while the proposer alone "
+    "executes the medoid of its 10 draws; the candidates' quality varies widely under the "
+    "trained critic's ranking (Fig. 8/9), and presumably the medoid avoids the worst of them. "
+    "Fig. 7's training curves show the climb from there."
 )
 
 

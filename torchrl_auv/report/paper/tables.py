@@ -15,6 +15,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from torchrl_auv.advisor.trigger import decisions_in_force
 from torchrl_auv.report.paper.grid import (
     ALPHAS,
     CONTROLLERS,
@@ -181,15 +182,16 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
 
 def _advisor_log(root: Path, seeds: Sequence[int], variant: str) -> dict[str, float]:
     """Over the finished jobs of ``variant`` with a decision log (``advisor.jsonl``): the
-    consultations and the spec changes applied per job, mean and std over seeds (NaN where
-    no job has a log)."""
+    consultations and the spec changes applied per job that stand (a resume's rolled-back
+    ones dropped: :func:`~torchrl_auv.advisor.decisions_in_force`), mean and std over seeds
+    (NaN where no job has a log)."""
     counts = []
     for seed in seeds:
         folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed,
                                            variant).name  # fmt: skip
         log = folder / "advisor.jsonl"
         if (folder / "eval.csv").exists() and log.exists():
-            records = [json.loads(line) for line in log.read_text().splitlines() if line]
+            records = decisions_in_force(log)
             counts.append((len(records), sum(bool(r.get("applied")) for r in records)))
     out = {}
     for i, key in enumerate(("consultations", "spec_changes")):
