@@ -313,11 +313,10 @@ PRIOR_TEXT = (
     "difference counts when it exceeds 1 % of the proposer alone's). At the end both are "
     "evaluated on the same held-out scenes (`eval.num_envs`, 4 in the paper presets); at "
     "frame 0 the job's value is its evaluation curve's first point, on the curve's own "
-    "`eval.curve_envs` scenes (2). At frame 0 the critic and the actor are untrained, so the "
-    "selection's pick among the K = 5 candidates is arbitrary, while the proposer alone "
-    "executes the medoid of its 10 draws; the candidates' quality varies widely under the "
-    "trained critic's ranking (Fig. 8/9), and presumably the medoid avoids the worst of them. "
-    "Fig. 7's training curves show the climb from there."
+    "`eval.curve_envs` scenes (2). At frame 0 the critic and the actor are untrained: the "
+    "selection picks among the K = 5 candidates by an untrained network's scores, while the "
+    "proposer alone executes the medoid of its 10 draws. Fig. 7's training curves show the "
+    "climb from there."
 )
 
 
