@@ -37,7 +37,14 @@ from pathlib import Path
 
 import yaml
 
-__all__ = ["DEFAULT_METRICS", "aggregate", "load_runs", "markdown_table", "parse_number"]
+__all__ = [
+    "DEFAULT_METRICS",
+    "aggregate",
+    "load_runs",
+    "markdown_table",
+    "mean_std_text",
+    "parse_number",
+]
 
 #: The metrics the table shows by default (eval.csv has more: pass ``metrics=``).
 DEFAULT_METRICS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "cost_mean",
@@ -138,12 +145,14 @@ def markdown_table(table: Sequence[dict], *, metrics: Sequence[str] = DEFAULT_ME
              "|" + "---|" * (len(labels) + len(metrics))]  # fmt: skip
     for row in table:
         cells = [str(row[label]) for label in labels]
-        cells += [_cell(row[m], row[f"{m}_std"]) for m in metrics]
+        cells += [mean_std_text(row[m], row[f"{m}_std"]) for m in metrics]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
-def _cell(mean: float, std: float) -> str:
-    if math.isnan(std) and not math.isnan(mean):
-        return f"{mean:.3g} (one run)"
+def mean_std_text(mean: float, std: float, single: str = "one run") -> str:
+    """``mean ± std`` to 3 significant digits; ``mean (<single>)`` where a finite mean has no
+    finite spread (one value measured none, which ``± 0`` would claim)."""
+    if math.isfinite(mean) and not math.isfinite(std):
+        return f"{mean:.3g} ({single})"
     return f"{mean:.3g} ± {std:.3g}"

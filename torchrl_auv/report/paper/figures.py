@@ -272,10 +272,10 @@ def _curve_panels(root: Path, seeds: Sequence[int], file: str, keys, width: int 
             # finished jobs only: a running job's curve stops short (and is not stored)
             curves = [read_curve(c) for c in curves
                       if c.exists() and (c.parent / "eval.csv").exists()]  # fmt: skip
+            lasts = [max((max(s) for s, _ in c.values()), default=0) for c in curves]  # last frame
             for i, (key, label) in enumerate(keys):
-                runs = [_binned(dict(zip(*c[key], strict=True)), width,
-                                max(max(steps) for steps, _ in c.values()))
-                        for c in curves if key in c]  # fmt: skip
+                runs = [_binned(dict(zip(*c[key], strict=True)), width, last)
+                        for c, last in zip(curves, lasts, strict=True) if key in c]  # fmt: skip
                 axes[i, 0].set_ylabel(label)
                 if not runs:
                     continue
@@ -330,11 +330,11 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     and EC, mean ± std over seeds (``MAIN_SEA``, S-Surface); then, in grey and not in the
     paper, the same jobs' :data:`REFERENCES` rows."""
     plt = _plt()
+    from matplotlib.patches import Patch
+
     metrics = ("return", "sdr_mbit", "ssn", "ec_w")
     jobs = [Job("diffusion_lac", MAIN_SEA, "s_surface", s) for s in seeds]
     rows = []
-    from matplotlib.patches import Patch
-
     names = {"RL": "RL (LAC)", **{policy: f"{policy} (reference)" for policy in REFERENCES}}
     for policy in RANKS + REFERENCES:
         cell = job_rows(root, jobs, policy, ("cost_mean", "decisions", "sdr_mbit", "ssn", "ec_w"))

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.store import RECORDS
-from torchrl_auv.report.sweeps import parse_number
+from torchrl_auv.report.sweeps import mean_std_text, parse_number
 
 __all__ = [
     "first_stage_folder",
@@ -98,11 +98,7 @@ def _cell(row: Mapping, column: str) -> str:
     value = row.get(column, "")
     if isinstance(value, float):
         std = row.get(f"{column}_std")
-        if std is None:
-            return f"{value:.3g}"
-        if math.isfinite(value) and not math.isfinite(std):  # mean_std of one value
-            return f"{value:.3g} (one seed)"
-        return f"{value:.3g} ± {std:.3g}"
+        return f"{value:.3g}" if std is None else mean_std_text(value, std, "one seed")
     return str(value)
 
 
