@@ -200,6 +200,33 @@ def test_batch_metrics_log_the_share_of_each_selection_slot():
     assert not any(k.startswith("train/selected_rank") for k in training.batch_metrics(data))
 
 
+def test_batch_metrics_log_which_side_of_the_candidates_the_executed_action_lies_on():
+    # 4 AUV-decisions, K = 3 candidates of 2 action dimensions; the executed action is in
+    # dimension 0 the largest, the largest, the smallest, the middle one; in dimension 1 the
+    # largest each time (a selection that always turns one way)
+    first = torch.tensor([[0.0, 1.0], [0.5, 2.0], [-0.5, 3.0]]).expand(2, 2, 3, 2)
+    executed = torch.tensor([[[0.5, 3.0], [0.5, 3.0]], [[-0.5, 3.0], [0.0, 3.0]]])
+    step = {"agents": {"cost": torch.ones(2, 2, 1)}, "done": torch.zeros(2, 1, dtype=torch.bool)}
+    data = TensorDict({"agents": {"proposer": {"first_actions": first}, "action": executed},
+                       "next": step}, [2])  # fmt: skip
+    out = training.batch_metrics(data)
+    assert out["train/selected_side_0"] == (1 + 1 - 1 + 0) / 4
+    assert out["train/selected_side_1"] == 1.0
+    # drawn at random among exchangeable candidates, the side averages out near 0
+    gen = torch.Generator().manual_seed(0)
+    first = torch.randn(4000, 2, 5, 3, generator=gen)
+    pick = torch.randint(0, 5, (4000, 2, 1, 1), generator=gen).expand(4000, 2, 1, 3)
+    step = {"agents": {"cost": torch.ones(4000, 2, 1)},
+            "done": torch.zeros(4000, 1, dtype=torch.bool)}  # fmt: skip
+    data = TensorDict({"agents": {"proposer": {"first_actions": first},
+                                  "action": first.gather(-2, pick).squeeze(-2)},
+                       "next": step}, [4000])  # fmt: skip
+    sides = [training.batch_metrics(data)[f"train/selected_side_{d}"] for d in range(3)]
+    assert all(abs(side) < 0.03 for side in sides), sides
+    del data["agents", "proposer"]
+    assert not any(k.startswith("train/selected_side") for k in training.batch_metrics(data))
+
+
 def test_evaluation_rows_repeat_on_the_same_seed_whatever_the_global_rng():
     def make(sea, seed):
         return training.make_env(sea, seed=seed, num_envs=2, max_steps=15)
