@@ -212,6 +212,7 @@ def test_batch_metrics_log_which_side_of_the_candidates_the_executed_action_lies
     out = training.batch_metrics(data)
     assert out["train/selected_side_0"] == (1 + 1 - 1 + 0) / 4
     assert out["train/selected_side_1"] == 1.0
+    assert out["train/selected_extreme_0"] == 3 / 4 and out["train/selected_extreme_1"] == 1.0
     # drawn at random among exchangeable candidates, the side averages out near 0
     gen = torch.Generator().manual_seed(0)
     first = torch.randn(4000, 2, 5, 3, generator=gen)
@@ -221,8 +222,11 @@ def test_batch_metrics_log_which_side_of_the_candidates_the_executed_action_lies
     data = TensorDict({"agents": {"proposer": {"first_actions": first},
                                   "action": first.gather(-2, pick).squeeze(-2)},
                        "next": step}, [4000])  # fmt: skip
-    sides = [training.batch_metrics(data)[f"train/selected_side_{d}"] for d in range(3)]
+    out = training.batch_metrics(data)
+    sides = [out[f"train/selected_side_{d}"] for d in range(3)]
     assert all(abs(side) < 0.03 for side in sides), sides
+    extremes = [out[f"train/selected_extreme_{d}"] for d in range(3)]
+    assert all(abs(extreme - 2 / 5) < 0.03 for extreme in extremes), extremes
     del data["agents", "proposer"]
     assert not any(k.startswith("train/selected_side") for k in training.batch_metrics(data))
 

@@ -49,7 +49,10 @@ def batch_metrics(data: TensorDictBase) -> dict[str, float]:
     out near 0 (the candidates are exchangeable draws, so the slot shares cannot show this); a
     selection that consistently turns one way reads near +1 or -1 (an untrained critic's
     argmax at the start of the RL stage: 0.39-0.70 away from 0 in the heading, dimension 1,
-    over four initialisations in VES)."""
+    over four initialisations in VES); and ``train/selected_extreme_<d>``, the share of
+    AUV-decisions whose executed action is the largest or the smallest of the candidates in
+    dimension ``d``: ``2 / K`` for an order-blind pick, more for a selection that favours the
+    candidates' extremes in whichever direction."""
     out = {"train/cost_mean": data["next", "agents", "cost"].mean().item()}
     index = data.get(("agents", "selector", "index"), None)
     if index is not None:
@@ -61,8 +64,10 @@ def batch_metrics(data: TensorDictBase) -> dict[str, float]:
         executed = data["agents", "action"].unsqueeze(-2)
         side = ((executed >= first.amax(-2, keepdim=True)).float()
                 - (executed <= first.amin(-2, keepdim=True)).float())  # fmt: skip
-        means = side.reshape(-1, side.shape[-1]).mean(0)
-        out.update({f"train/selected_side_{d}": v for d, v in enumerate(means.tolist())})
+        side = side.reshape(-1, side.shape[-1])
+        out.update({f"train/selected_side_{d}": v for d, v in enumerate(side.mean(0).tolist())})
+        extreme = side.abs().mean(0).tolist()
+        out.update({f"train/selected_extreme_{d}": v for d, v in enumerate(extreme)})
     ended = data["next", "done"][..., 0]
     if ended.any():
         for name in EPISODE_METRICS:
