@@ -3,8 +3,17 @@ evaluation at frame 0 and at the end against the same job's proposer alone, coun
 
 from __future__ import annotations
 
+import math
+
+import pytest
+
 from torchrl_auv.report.paper.grid import Job
-from torchrl_auv.report.paper.prior import format_prior, prior_counts
+from torchrl_auv.report.paper.prior import (
+    extreme_shares,
+    format_extreme_shares,
+    format_prior,
+    prior_counts,
+)
 
 
 def _job(root, job, *, start, end, end_ssn, alone=(1.5, 10.0), curve=True):
@@ -49,3 +58,51 @@ def test_no_finished_rl_stage_says_so(tmp_path):
     assert "no Diffusion+RL or Diffusion+RL (LAC) job has finished" in "\n".join(
         format_prior(counts)
     )
+
+
+def _curve(root, job, shares, *, finished=True):
+    """``train_curve.csv`` with ``train/selected_extreme_1`` (heading) at 1000-frame batches
+    (and an ``eval.csv`` where the job has ``finished``)."""
+    folder = root / "jobs" / job.name
+    folder.mkdir(parents=True, exist_ok=True)
+    if finished:
+        row = f"{job.sea},{job.framework},1.0"
+        (folder / "eval.csv").write_text(f"sea_state,policy,cost_mean\n{row}\n")
+    lines = ["step,key,value"]
+    for i, share in enumerate(shares, start=1):
+        lines += [f"{1000 * i},train/cost_mean,2.0", f"{1000 * i},train/selected_extreme_1,{share}"]
+    (folder / "train_curve.csv").write_text("\n".join(lines) + "\n")
+
+
+def test_extreme_shares_average_each_jobs_first_and_last_frames_over_jobs(tmp_path):
+    rl = [Job("diffusion_rl", "es", "s_surface", s) for s in (0, 1, 2)]
+    # 12 batches: the first 5,000 frames are batches 1-5, the last 5,000 batches 8-12
+    _curve(tmp_path, rl[0], [0.8, 0.6, 0.6, 0.6, 0.4, 0.0, 0.0, 0.5, 0.5, 0.5, 0.5, 0.5])
+    _curve(tmp_path, rl[1], [1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.3, 0.3, 0.3, 0.3, 0.3])
+    (tmp_path / "jobs" / rl[2].name).mkdir(parents=True)  # no curve: not counted
+    running = Job("diffusion_rl", "ves", "s_surface", 0)
+    _curve(tmp_path, running, [0.0] * 12, finished=False)  # no eval.csv yet: not counted
+    alone = Job("diffusion", "es", "s_surface", 0)
+    _curve(tmp_path, alone, [0.1] * 12)  # the proposer alone (its own K): left out
+    short = Job("diffusion_lac", "es", "s_surface", 0)
+    _curve(tmp_path, short, [0.9, 0.7, 0.8, 0.8, 0.8, 0.0, 0.0])  # < two windows: no last
+    lac = Job("diffusion_lac", "ves", "s_surface", 0, "fixed-softplus-alpha0.1")
+    _curve(tmp_path, lac, [0.9] * 12)  # a variant: left out
+    shares = extreme_shares(tmp_path, [*rl, running, alone, short, lac], window=5000)
+    cell = shares["diffusion_rl"]["heading"]
+    assert cell["jobs"] == 2
+    assert cell["first"] == pytest.approx((0.8, math.sqrt(0.08)))  # job means 0.6 and 1.0
+    assert cell["last"] == pytest.approx((0.4, math.sqrt(0.02)))  # 0.5 and 0.3
+    assert "diffusion" not in shares
+    assert shares["diffusion_lac"]["heading"]["jobs"] == 1
+    assert shares["diffusion_lac"]["heading"]["first"][0] == pytest.approx(0.8)
+    assert math.isnan(shares["diffusion_lac"]["heading"]["last"][0])
+    assert shares["diffusion_rl"]["depth"]["jobs"] == 0  # not logged in these curves
+    text = "\n".join(format_extreme_shares(shares, num_candidates=5))
+    assert "0.8 ± 0.283" in text and "0.4 ± 0.141" in text and "0.8 (one job)" in text
+    assert "2 / K = 0.4" in text
+
+
+def test_no_logged_selection_says_so(tmp_path):
+    shares = extreme_shares(tmp_path, [Job("diffusion_rl", "es", "s_surface", 0)])
+    assert "No job has logged" in "\n".join(format_extreme_shares(shares, num_candidates=5))

@@ -118,6 +118,7 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     # the RL stage against its prior: no Diffusion+RL job among these
     assert "## The RL stage against its own prior" in text
     assert "no Diffusion+RL or Diffusion+RL (LAC) job has finished" in text
+    assert "No job has logged which candidate it executed yet" in text
 
 
 def test_rank_returns_and_the_convergence_point_are_the_pages_own(tmp_path):
@@ -197,3 +198,16 @@ def test_training_speed_counts_sessions_that_trained_and_training_jobs_only(tmp_
     text = write_results_page(root, page, seeds=[0, 1, 2], jobs=list(facts)).read_text()
     assert ("median and range: Diffusion+RL (LAC) 45, 40-50 (2 jobs); Diffusion+RL (LAC), "
             "10 DDIM steps 77 (1 job) |") in text  # fmt: skip
+
+
+def test_the_pages_k_is_the_paper_presets_number_of_candidates():
+    import pathlib
+
+    import yaml
+
+    from torchrl_auv.report.paper.results_page import NUM_CANDIDATES
+
+    recipes = pathlib.Path(__file__).resolve().parents[2] / "recipes"
+    for framework in ("diffusion_rl", "diffusion_lac"):
+        preset = yaml.safe_load((recipes / framework / "paper.yaml").read_text())
+        assert preset["proposer"]["num_candidates"] == NUM_CANDIDATES, framework

@@ -8,6 +8,10 @@ again) with its own proposer alone: at frame 0 (the first point of ``eval_curve.
 the curve's ``eval.curve_envs`` scenes: critic and actor untrained) and at the end (the
 job's own row, on the same scenes as the proposer alone's), counted per framework. A
 difference counts when it exceeds :data:`MARGIN` of the proposer alone's value.
+:func:`extreme_shares` reads which candidates the selection executed while the job trained:
+the share of AUV-decisions whose executed action is the largest or the smallest of the K
+candidates' first actions, per action dimension (``train/selected_extreme_<d>`` of its
+``train_curve.csv``), in its first and its last ``window`` frames.
 
 Examples:
     >>> import pathlib, tempfile
@@ -29,10 +33,17 @@ from pathlib import Path
 
 from torchrl_auv.report.curves import read_curve
 from torchrl_auv.report.paper.grid import Job
-from torchrl_auv.report.paper.output import read_eval
+from torchrl_auv.report.paper.output import mean_std, read_eval
 from torchrl_auv.report.paper.tables import LABELS
+from torchrl_auv.report.sweeps import mean_std_text
 
-__all__ = ["FRAMEWORKS_WITH_PRIOR", "format_prior", "prior_counts"]
+__all__ = [
+    "FRAMEWORKS_WITH_PRIOR",
+    "extreme_shares",
+    "format_extreme_shares",
+    "format_prior",
+    "prior_counts",
+]
 
 FRAMEWORKS_WITH_PRIOR = ("diffusion_rl", "diffusion_lac")
 #: the relative difference a comparison needs to count (smaller ones are ties)
@@ -43,6 +54,8 @@ ROWS = {
     "end_cheaper": "costs less than the proposer alone at the end",
     "end_fewer_ssn": "serves fewer nodes (SSN) than the proposer alone at the end",
 }
+#: the action dimensions, in the order of ``train/selected_extreme_<d>``
+ACTION_DIMS = ("depth", "heading", "propeller")
 
 
 def _frame0_cost(folder: Path) -> float:
@@ -91,4 +104,75 @@ def format_prior(counts: dict[str, dict]) -> list[str]:
     for key, text in ROWS.items():
         cells = [f"{counts[f][key][0]} of {counts[f][key][1]}" for f in counts]
         lines.append(f"| {text} | {' | '.join(cells)} |")
+    return lines
+
+
+def _window_means(path: Path, key: str, window: int) -> tuple[float, float] | None:
+    """The mean of ``key`` over the batches logged at frames ``<= window`` and over those
+    after ``last - window`` (NaN where the curve is shorter than two windows: they would
+    overlap); ``None`` when the curve does not log ``key``."""
+    steps, values = read_curve(path).get(key, ([], []))
+    if not steps:
+        return None
+    first = [v for s, v in zip(steps, values, strict=True) if s <= window]
+    last = [v for s, v in zip(steps, values, strict=True) if s > steps[-1] - window]
+    return (mean_std(first)[0] if first else math.nan,
+            mean_std(last)[0] if steps[-1] >= 2 * window else math.nan)  # fmt: skip
+
+
+def extreme_shares(root: str | Path, jobs: Sequence[Job], window: int = 5000) -> dict:
+    """Per framework of :data:`FRAMEWORKS_WITH_PRIOR` and action dimension of
+    :data:`ACTION_DIMS`: ``jobs`` (finished, no variant, whose ``train_curve.csv`` logs
+    ``train/selected_extreme_<d>``), ``first`` and ``last``: the mean and std over those jobs
+    of each job's mean share in its first and its last ``window`` frames (the training
+    batches: exploration on). A pick blind to the candidates' order gives ``2 / K``. (The
+    proposer alone, framework ``diffusion``, logs it too, but over its own
+    ``alone_candidates`` draws, so it is left out.)"""
+    out = {f: {d: {"jobs": 0, "first": [], "last": []} for d in ACTION_DIMS}
+           for f in FRAMEWORKS_WITH_PRIOR}  # fmt: skip
+    for job in jobs:
+        folder = Path(root) / "jobs" / job.name
+        curve = folder / "train_curve.csv"
+        if job.framework not in out or job.variant or not (folder / "eval.csv").exists():
+            continue
+        for i, dim in enumerate(ACTION_DIMS):
+            key = f"train/selected_extreme_{i}"
+            means = _window_means(curve, key, window) if curve.exists() else None
+            if means is not None:
+                cell = out[job.framework][dim]
+                cell["jobs"] += 1
+                cell["first"].append(means[0])
+                cell["last"].append(means[1])
+    for cells in out.values():
+        for cell in cells.values():
+            cell["first"], cell["last"] = mean_std(cell["first"]), mean_std(cell["last"])
+    return out
+
+
+def format_extreme_shares(shares: dict, num_candidates: int, window: int = 5000) -> list[str]:
+    """:func:`extreme_shares` as the results page's Markdown lines."""
+    frameworks = [f for f in shares if any(c["jobs"] for c in shares[f].values())]
+    if not frameworks:
+        return ["*No job has logged which candidate it executed yet "
+                "(`train/selected_extreme_<d>`).*"]  # fmt: skip
+    blind = 2 / num_candidates
+    lines = [
+        f"Which candidate was executed while the job trained: the share of AUV-decisions whose "
+        f"executed action is the largest or the smallest of the K = {num_candidates} "
+        f"candidates' first actions (`train/selected_extreme_<d>`; 2 / K = {blind:.2g} for a "
+        f"pick blind to their order, somewhat more where candidates tie at an action bound), "
+        f"each job's mean over its first and its last "
+        f"{window:,} frames, then mean ± std over the finished jobs that log it.",
+        "",
+        f"| dimension, frames | {' | '.join(LABELS[f] for f in frameworks)} |",
+        "|---" * (len(frameworks) + 1) + "|",
+    ]
+    jobs = [str(max(c["jobs"] for c in shares[f].values())) for f in frameworks]
+    lines.append(f"| jobs | {' | '.join(jobs)} |")
+    for dim in ACTION_DIMS:
+        for part in ("first", "last"):
+            values = [shares[f][dim][part] for f in frameworks]
+            cells = [mean_std_text(*v, single="one job") if math.isfinite(v[0]) else "-"
+                     for v in values]  # fmt: skip
+            lines.append(f"| {dim}, {part} {window:,} | {' | '.join(cells)} |")
     return lines
