@@ -125,13 +125,29 @@ def test_the_advisor_table_counts_the_spec_changes_each_job_applied(root):
     unfinished = Job("diffusion_lac", "ves", "s_surface", 1, "fixed-softplus-alpha0.1")
     (root / "jobs" / unfinished.name / "eval.csv").unlink()
     write_log(unfinished, [True])  # not finished: not counted
+    # a model that re-states the alpha in force with fewer digits changes nothing it decided
+    model = Job("diffusion_lac", "ves", "s_surface", 0, "openai")
+    (root / "jobs" / model.name).mkdir(parents=True)
+    (root / "jobs" / model.name / "eval.csv").write_text(
+        "sea_state,policy,cost_mean\nves,diffusion_lac,1.0\n"
+    )
+    spec = {"form": "softplus", "prior": None}
+    # (alpha before, alpha decided, applied): kept, changed, re-rounded, refused
+    steps = [(0.1, 0.1, False), (0.1, 0.156483279, True), (0.156483279, 0.156483, True),
+             (0.156483, 0.3, False)]  # fmt: skip
+    (root / "jobs" / model.name / "advisor.jsonl").write_text("".join(
+        json.dumps({"frame": 1000 * i, "applied": applied,
+                    "spec_before": {**spec, "alpha": before, "prior_weight": 1.0},
+                    "decision": {**spec, "alpha": after, "rationale": ""}}) + "\n"
+        for i, (before, after, applied) in enumerate(steps)))  # fmt: skip
     write_report(root, ["advisor"], seeds=(0, 1, 2), budget="paper")
     rows = json.loads((root / "report/advisor/advisor.json").read_text())["rows"]
     rules, fixed, llm = rows
     assert rules["spec_changes"] == 1.0 and rules["spec_changes_std"] == 1.0  # 1, 2, 0
     assert rules["consultations"] == 2.0  # 2, 3, 1
     assert fixed["consultations"] == 3.0 and fixed["spec_changes"] == 0.0  # seed 0 alone
-    assert math.isnan(fixed["spec_changes_std"]) and llm["runs"] == 0  # one seed; not run
+    assert math.isnan(fixed["spec_changes_std"])  # one seed
+    assert llm["consultations"] == 4.0 and llm["spec_changes"] == 1.0  # the re-rounding: none
     header = (root / "report/advisor/advisor.md").read_text().splitlines()[2]
     assert "| consultations | spec_changes |" in header
 

@@ -180,11 +180,29 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
     )
 
 
+#: an applied decision whose alpha differs from the one in force by less than this (relative)
+#: and keeps form and prior re-states the spec (a model re-rounding the number): not a change
+ALPHA_RTOL = 1e-3
+
+
+def _changed_spec(record: dict) -> bool:
+    """Whether a consultation's decision was applied and changed the form, the prior or alpha
+    by more than :data:`ALPHA_RTOL` (a record without the specs: as its ``applied`` says)."""
+    before, after = record.get("spec_before"), record.get("decision")
+    if not record.get("applied") or not isinstance(before, dict) or not isinstance(after, dict):
+        return bool(record.get("applied"))
+    if (before.get("form"), before.get("prior")) != (after.get("form"), after.get("prior")):
+        return True
+    alpha, new = float(before["alpha"]), float(after["alpha"])
+    return abs(new - alpha) > ALPHA_RTOL * abs(alpha)
+
+
 def _advisor_log(root: Path, seeds: Sequence[int], variant: str) -> dict[str, float]:
     """Over the finished jobs of ``variant`` with a decision log (``advisor.jsonl``): the
-    consultations and the spec changes applied per job that stand (a resume's rolled-back
-    ones dropped: :func:`~torchrl_auv.advisor.decisions_in_force`), mean and std over seeds
-    (NaN where no job has a log)."""
+    consultations and the spec changes per job that stand (a resume's rolled-back ones
+    dropped: :func:`~torchrl_auv.advisor.decisions_in_force`; an applied decision that only
+    re-states alpha within :data:`ALPHA_RTOL` not counted), mean and std over seeds (NaN
+    where no job has a log)."""
     counts = []
     for seed in seeds:
         folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed,
@@ -192,7 +210,7 @@ def _advisor_log(root: Path, seeds: Sequence[int], variant: str) -> dict[str, fl
         log = folder / "advisor.jsonl"
         if (folder / "eval.csv").exists() and log.exists():
             records = decisions_in_force(log)
-            counts.append((len(records), sum(bool(r.get("applied")) for r in records)))
+            counts.append((len(records), sum(_changed_spec(r) for r in records)))
     out = {}
     for i, key in enumerate(("consultations", "spec_changes")):
         out[key], out[f"{key}_std"] = mean_std([float(c[i]) for c in counts])
