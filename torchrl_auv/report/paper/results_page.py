@@ -324,11 +324,12 @@ PRIOR_TEXT = (
     "`eval.curve_envs` scenes (2). At frame 0 the critic and the actor are untrained: the "
     "selection picks among the K = 5 candidates by an untrained network's scores, while the "
     "proposer alone executes the medoid of its 10 draws. Fig. 7's training curves show the "
-    "climb from there. An untrained critic's argmax turns one way: the executed heading "
-    "change sat on one side of the candidates' 0.39-0.70 on average (`train/selected_side_1`, "
-    "four initialisations in VES at frame 0; `recipes/README.md`). The second table shows "
-    "how often the selection executed a candidate at an end of the K, and whether training "
-    "moved it off the ends."
+    "climb from there. An untrained critic's argmax turns one way: over four "
+    "initialisations (VES, frame 0), `train/selected_side_1`, the mean of +1 where the "
+    "executed heading change is the largest of the candidates' and -1 where it is the "
+    "smallest, read 0.39-0.70 away from 0 (`recipes/README.md`). The second table shows how "
+    "often the selection executed a candidate at an end of the K, and whether training moved "
+    "it off the ends."
 )
 
 
