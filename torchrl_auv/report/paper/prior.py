@@ -107,11 +107,11 @@ def format_prior(counts: dict[str, dict]) -> list[str]:
     return lines
 
 
-def _window_means(path: Path, key: str, window: int) -> tuple[float, float] | None:
-    """The mean of ``key`` over the batches logged at frames ``<= window`` and over those
-    after ``last - window`` (NaN where the curve is shorter than two windows: they would
-    overlap); ``None`` when the curve does not log ``key``."""
-    steps, values = read_curve(path).get(key, ([], []))
+def _window_means(curves: dict, key: str, window: int) -> tuple[float, float] | None:
+    """The mean of ``key`` (of :func:`read_curve`'s ``curves``) over the batches logged at
+    frames ``<= window`` and over those after ``last - window`` (NaN where the curve is shorter
+    than two windows: they would overlap); ``None`` when the curve does not log ``key``."""
+    steps, values = curves.get(key, ([], []))
     if not steps:
         return None
     first = [v for s, v in zip(steps, values, strict=True) if s <= window]
@@ -135,9 +135,9 @@ def extreme_shares(root: str | Path, jobs: Sequence[Job], window: int = 5000) ->
         curve = folder / "train_curve.csv"
         if job.framework not in out or job.variant or not (folder / "eval.csv").exists():
             continue
+        curves = read_curve(curve) if curve.exists() else {}
         for i, dim in enumerate(ACTION_DIMS):
-            key = f"train/selected_extreme_{i}"
-            means = _window_means(curve, key, window) if curve.exists() else None
+            means = _window_means(curves, f"train/selected_extreme_{i}", window)
             if means is not None:
                 cell = out[job.framework][dim]
                 cell["jobs"] += 1
