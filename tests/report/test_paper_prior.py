@@ -9,7 +9,9 @@ import pytest
 
 from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.prior import (
+    cost_term_changes,
     extreme_shares,
+    format_cost_term_changes,
     format_extreme_shares,
     format_prior,
     prior_counts,
@@ -106,3 +108,56 @@ def test_extreme_shares_average_each_jobs_first_and_last_frames_over_jobs(tmp_pa
 def test_no_logged_selection_says_so(tmp_path):
     shares = extreme_shares(tmp_path, [Job("diffusion_rl", "es", "s_surface", 0)])
     assert "No job has logged" in "\n".join(format_extreme_shares(shares, num_candidates=5))
+
+
+def _terms_job(root, job, own, alone, *, ended=(0.0, 0.0), variant_csv=False):
+    """``eval.csv`` with the cost, whether a scene ended early and each term's share, for the
+    job's row and its proposer alone's; ``own`` / ``alone``: ``(cost_mean, {term: share})``
+    (terms not named share what is left equally)."""
+    from torchrl_auv.iout.reward import COST_TERMS
+
+    folder = root / "jobs" / job.name
+    folder.mkdir(parents=True)
+    header = "sea_state,policy,cost_mean,ssn,terminated," + ",".join(
+        f"share_{t}" for t in COST_TERMS
+    )
+    rows = [header]
+    for policy, (cost, named), end in ((job.framework, own, ended[0]),
+                                       ("proposer alone", alone, ended[1])):  # fmt: skip
+        rest = (1.0 - sum(named.values())) / (len(COST_TERMS) - len(named))
+        shares = [named.get(t, rest) for t in COST_TERMS]
+        rows.append(f"{job.sea},{policy},{cost},8,{end}," + ",".join(map(str, shares)))
+    (folder / "eval.csv").write_text("\n".join(rows) + "\n")
+
+
+def test_cost_term_changes_split_each_jobs_change_by_term(tmp_path):
+    rl = [Job("diffusion_rl", "es", "s_surface", s) for s in (0, 1, 2)]
+    # seed 0: violation 0.5 -> 0.1, distance 0.2 -> 0.3 (cost 2.0 -> 1.6)
+    _terms_job(tmp_path, rl[0], (1.6, {"violation": 0.1 / 1.6, "distance": 0.3 / 1.6}),
+               (2.0, {"violation": 0.25, "distance": 0.1}))  # fmt: skip
+    # seed 1: violation 0.3 -> 0.1, distance 0.2 -> 0.205 (within 1 % of 2.0: a tie)
+    _terms_job(tmp_path, rl[1], (1.805, {"violation": 0.1 / 1.805, "distance": 0.205 / 1.805}),
+               (2.0, {"violation": 0.15, "distance": 0.1}))  # fmt: skip
+    # seed 2: a scene of the proposer alone ended early: its termination cost is in no term
+    _terms_job(tmp_path, rl[2], (1.0, {}), (700.0, {}), ended=(0.0, 0.25))
+    variant = Job("diffusion_lac", "ves", "s_surface", 0, "fixed-softplus-alpha0.1")
+    _terms_job(tmp_path, variant, (1.0, {"violation": 0.0}), (2.0, {"violation": 0.5}))
+    older = Job("diffusion_lac", "es", "pid", 0)  # an eval.csv without the shares: left out
+    _job(tmp_path, older, start=2.0, end=1.0, end_ssn=8.0)
+    changes = cost_term_changes(tmp_path, [*rl, variant, older, Job("sac", "es", "pid", 0)])
+    cell = changes["diffusion_rl"]
+    assert cell["jobs"] == 2 and cell["ended_early"] == 1
+    assert cell["violation"]["change"] == pytest.approx((-0.3, math.sqrt(0.02)))
+    assert (cell["violation"]["lower"], cell["violation"]["higher"]) == (2, 0)
+    assert cell["distance"]["change"] == pytest.approx((0.0525, math.sqrt(0.0045125)))
+    assert (cell["distance"]["lower"], cell["distance"]["higher"]) == (0, 1)
+    assert cell["total"]["change"] == pytest.approx((-0.2975, math.sqrt(0.0210125)))
+    assert changes["diffusion_lac"]["jobs"] == 0
+    text = "\n".join(format_cost_term_changes(changes))
+    assert "| violation" in text and "-0.3 ± 0.141 (lower in 2, higher in 0 of 2)" in text
+    assert "1 job left out" in text
+
+
+def test_no_job_with_cost_terms_says_so(tmp_path):
+    changes = cost_term_changes(tmp_path, [Job("diffusion_rl", "es", "s_surface", 0)])
+    assert "No finished" in "\n".join(format_cost_term_changes(changes))

@@ -12,6 +12,8 @@ difference counts when it exceeds :data:`MARGIN` of the proposer alone's value.
 the share of AUV-decisions whose executed action is the largest or the smallest of the K
 candidates' first actions, per action dimension (``train/selected_extreme_<d>`` of its
 ``train_curve.csv``), in its first and its last ``window`` frames.
+:func:`cost_term_changes` splits each job's change of cost at the end (its row minus its
+proposer alone's) by the cost's terms (:data:`~torchrl_auv.iout.reward.COST_TERMS`).
 
 Examples:
     >>> import pathlib, tempfile
@@ -31,6 +33,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from torchrl_auv.iout.reward import COST_TERMS
 from torchrl_auv.report.curves import read_curve
 from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.output import mean_std, read_eval
@@ -39,7 +42,9 @@ from torchrl_auv.report.sweeps import mean_std_text
 
 __all__ = [
     "FRAMEWORKS_WITH_PRIOR",
+    "cost_term_changes",
     "extreme_shares",
+    "format_cost_term_changes",
     "format_extreme_shares",
     "format_prior",
     "prior_counts",
@@ -53,6 +58,17 @@ ROWS = {
     "start_worse": "costs more than the proposer alone at frame 0 (critic and actor untrained)",
     "end_cheaper": "costs less than the proposer alone at the end",
     "end_fewer_ssn": "serves fewer nodes (SSN) than the proposer alone at the end",
+}
+#: each cost term's row on the results page (the terms of :func:`~torchrl_auv.iout.task_cost`)
+TERM_ROWS = {
+    "distance": "distance to the target",
+    "regress": "moving away from the target",
+    "energy": "energy",
+    "collision": "collision",
+    "violation": "violation (outside the area, or too near the seabed or the surface)",
+    "waiting": "data waiting in the nodes",
+    "overflow": "overflow (packets lost)",
+    "total": "all terms (the cost)",
 }
 #: the action dimensions, in the order of ``train/selected_extreme_<d>``
 ACTION_DIMS = ("depth", "heading", "propeller")
@@ -175,4 +191,85 @@ def format_extreme_shares(shares: dict, num_candidates: int, window: int = 5000)
             cells = [mean_std_text(*v, single="one job") if math.isfinite(v[0]) else "-"
                      for v in values]  # fmt: skip
             lines.append(f"| {dim}, {part} {window:,} | {' | '.join(cells)} |")
+    return lines
+
+
+def _term_costs(row: dict) -> dict[str, float] | None:
+    """Each cost term per AUV-decision of an ``eval.csv`` row (its share of the cost times the
+    cost) and ``total``; ``None`` where the row has no shares."""
+    shares = [row.get(f"share_{term}") for term in COST_TERMS]
+    cost = row.get("cost_mean")
+    if not all(isinstance(v, float) for v in [*shares, cost]):
+        return None
+    return {**{t: cost * share for t, share in zip(COST_TERMS, shares, strict=True)},
+            "total": cost}  # fmt: skip
+
+
+def cost_term_changes(root: str | Path, jobs: Sequence[Job]) -> dict[str, dict]:
+    """Per framework of :data:`FRAMEWORKS_WITH_PRIOR`: where each finished job of the main
+    cells (no variant) changed its cost at the end against its own proposer alone, term by
+    term (cost per AUV-decision, the job's row minus its proposer alone's). A term's cost is
+    its share of the evaluation's cost times the cost (``share_<term>`` x ``cost_mean`` of
+    ``eval.csv``): exact where every scene ran to its end, so a job where either row ended a
+    scene early (``terminated`` > 0: the termination cost is in no term) is left out and
+    counted in ``ended_early``; a job whose ``eval.csv`` has no shares is left out.
+
+    Returns ``{framework: {"jobs", "ended_early", <term or "total">: {"change": (mean, std)
+    over the jobs, "lower": jobs where the term fell by more than MARGIN of the proposer
+    alone's cost, "higher": where it rose by more}}}``."""
+    out = {}
+    for framework in FRAMEWORKS_WITH_PRIOR:
+        changes: dict[str, list[float]] = {term: [] for term in TERM_ROWS}
+        margins, ended_early = [], 0
+        for job in jobs:
+            rows = read_eval(root, job) if job.framework == framework and not job.variant else None
+            if not rows or "proposer alone" not in rows or framework not in rows:
+                continue
+            own, alone = rows[framework], rows["proposer alone"]
+            own_terms, alone_terms = _term_costs(own), _term_costs(alone)
+            if own_terms is None or alone_terms is None:
+                continue
+            if own.get("terminated") != 0.0 or alone.get("terminated") != 0.0:
+                ended_early += 1
+                continue
+            margins.append(MARGIN * abs(alone_terms["total"]))
+            for term in TERM_ROWS:
+                changes[term].append(own_terms[term] - alone_terms[term])
+        cell = {"jobs": len(margins), "ended_early": ended_early}
+        for term, values in changes.items():
+            cell[term] = {
+                "change": mean_std(values),
+                "lower": sum(v < -m for v, m in zip(values, margins, strict=True)),
+                "higher": sum(v > m for v, m in zip(values, margins, strict=True)),
+            }
+        out[framework] = cell
+    return out
+
+
+def format_cost_term_changes(changes: dict[str, dict]) -> list[str]:
+    """:func:`cost_term_changes` as the results page's Markdown lines."""
+    frameworks = [f for f, cell in changes.items() if cell["jobs"]]
+    if not frameworks:
+        return ["*No finished Diffusion+RL or Diffusion+RL (LAC) job has its cost split by "
+                "term yet.*"]  # fmt: skip
+    left_out = sum(changes[f]["ended_early"] for f in changes)
+    lines = [
+        "Where the cost changed at the end: each job's cost per AUV-decision minus its "
+        "proposer alone's, term by term (the term's share of the evaluation's cost times the "
+        "cost; negative: the RL stage costs less), mean ± std over the jobs, and in how many "
+        "jobs the term fell or rose by more than 1 % of the proposer alone's cost. Jobs where "
+        "either policy ended a scene early are left out (the termination cost is in no term): "
+        f"{left_out} job{'' if left_out == 1 else 's'} left out.",
+        "",
+        f"| cost term | {' | '.join(LABELS[f] for f in frameworks)} |",
+        "|---" * (len(frameworks) + 1) + "|",
+        f"| jobs | {' | '.join(str(changes[f]['jobs']) for f in frameworks)} |",
+    ]
+    for term, text in TERM_ROWS.items():
+        cells = []
+        for f in frameworks:
+            cell, n = changes[f][term], changes[f]["jobs"]
+            change = mean_std_text(*cell["change"], single="one job")
+            cells.append(f"{change} (lower in {cell['lower']}, higher in {cell['higher']} of {n})")
+        lines.append(f"| {text} | {' | '.join(cells)} |")
     return lines

@@ -30,7 +30,9 @@ from torchrl_auv.report.paper.claims import OUTCOMES, judge
 from torchrl_auv.report.paper.figures import TRAIN_BIN_FRAMES
 from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.prior import (
+    cost_term_changes,
     extreme_shares,
+    format_cost_term_changes,
     format_extreme_shares,
     format_prior,
     prior_counts,
@@ -329,7 +331,8 @@ PRIOR_TEXT = (
     "executed heading change is the largest of the candidates' and -1 where it is the "
     "smallest, read 0.39-0.70 away from 0 (`recipes/README.md`). The second table shows how "
     "often the selection executed a candidate at an end of the K, and whether training moved "
-    "it off the ends."
+    "it off the ends; the third, which of the cost's terms the RL stage lowered and which it "
+    "raised."
 )
 
 
@@ -389,6 +392,8 @@ def write_results_page(
         *format_prior(prior_counts(root, jobs)),
         "",
         *format_extreme_shares(extreme_shares(root, jobs), NUM_CANDIDATES),
+        "",
+        *format_cost_term_changes(cost_term_changes(root, jobs)),
         "",
         "## Why our numbers and the paper's part",
         "",
