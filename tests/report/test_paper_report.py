@@ -193,7 +193,7 @@ def test_fig8_9_puts_the_papers_numbers_beside_ours(tmp_path):
     )
     columns = (tmp_path / "report/fig8_9/fig8_9.md").read_text().splitlines()[2]
     assert columns.startswith(
-        "| policy | runs | return | paper return (x 1e3) | sdr_mbit | paper sdr_mbit"
+        "| policy | runs | return | paper return (x 1e3) | ended early | sdr_mbit | paper sdr_mbit"
     )
 
 
@@ -209,9 +209,14 @@ def test_fig8_9_shows_the_proposer_alone_the_expert_and_random_as_reference_rows
     jobs = [Job("diffusion_lac", "ves", "s_surface", s) for s in (0, 1, 2)]
     for row, policy in zip(rows[6:], ("proposer alone", "expert", "random"), strict=True):
         assert row["runs"] == 3 and row["ssn"] == _mean(jobs, policy, "ssn")
-        cost, decisions = _mean(jobs, policy, "cost_mean"), _mean(jobs, policy, "decisions")
-        assert row["return"] == pytest.approx(-cost * decisions)
+        # each seed's own return (its cost per AUV-decision times its decisions), then the
+        # mean and std over the seeds: the numbers the claims compare
+        returns = [-_value(j, policy, "cost_mean") * _value(j, policy, "decisions") for j in jobs]
+        assert row["return"] == pytest.approx(statistics.fmean(returns))
+        assert row["return_std"] == pytest.approx(statistics.stdev(returns))
+        assert row["ended early"] == _mean(jobs, policy, "terminated")
         assert math.isnan(row["paper ssn"]) and math.isnan(row["paper return (x 1e3)"])
+    assert "ended early" in (root / "report/fig8_9/fig8_9.md").read_text().splitlines()[2]
 
 
 def test_the_sampler_time_of_an_earlier_report_stands_where_the_first_stage_is_gone(tmp_path):

@@ -55,7 +55,7 @@ from torchrl_auv.report.paper.grid import (
     SEAS,
     Job,
 )
-from torchrl_auv.report.paper.output import mean_std, read_eval
+from torchrl_auv.report.paper.output import mean_std, metric_value, read_eval
 from torchrl_auv.report.paper.tables import LABELS
 
 __all__ = ["CLAIMS", "OUTCOMES", "Claim", "compare", "judge", "verdict"]
@@ -132,9 +132,8 @@ def _stat(root: Path, framework: str, sea: str, controller: str, seeds: Sequence
         row = (read_eval(root, job) or {}).get(policy or framework)
         if row is None:
             continue
-        value = (-row.get("cost_mean", math.nan) * row.get("decisions", math.nan)
-                 if metric == "return" else row.get(metric, math.nan))  # fmt: skip
-        if isinstance(value, float) and math.isfinite(value):
+        value = metric_value(row, metric)
+        if math.isfinite(value):
             values.append(value)
     mean, std = mean_std(values)
     return mean, std, len(values)

@@ -337,9 +337,8 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     rows = []
     names = {"RL": "RL (LAC)", **{policy: f"{policy} (reference)" for policy in REFERENCES}}
     for policy in RANKS + REFERENCES:
-        cell = job_rows(root, jobs, policy, ("cost_mean", "decisions", "sdr_mbit", "ssn", "ec_w"))
-        cell["return"] = -cell["cost_mean"] * cell["decisions"]
-        cell["return_std"] = cell["cost_mean_std"] * cell["decisions"]
+        cell = job_rows(root, jobs, policy, ("return", "terminated", *metrics[1:]))
+        cell["ended early"], cell["ended early_std"] = cell["terminated"], cell["terminated_std"]
         paper = {f"paper {m}": FIG9.get(policy, {}).get(m, math.nan) for m in metrics[1:]}
         rows.append({"policy": names.get(policy, policy), **cell,
                      "paper return (x 1e3)": FIG8_RETURN_E3.get(policy, math.nan),
@@ -371,10 +370,18 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
             "runs",
             "return",
             "paper return (x 1e3)",
+            "ended early",
             *(c for m in metrics[1:] for c in (m, f"paper {m}")),
         ],
         header=header + f"; sea {MAIN_SEA}; return = -cost per AUV summed over the episode "
-        "(mean cost x decisions; the paper's return is on its own reward scale); the paper's "
+        "(each seed's cost per AUV-decision x its decisions, then mean ± std over the seeds; "
+        "the paper's return is on its own reward scale, and its column is in the paper's unit "
+        "of 1e3); ended early: the share of the held-out scenes whose episode an AUV ended "
+        "(more than 100 m outside the area, or a diverged state): such an episode sums fewer "
+        "decisions, so its return can be higher than a full episode's despite the termination "
+        "cost (which is set against discounted sums, gamma <= 0.99, not the undiscounted "
+        "1000-decision sum); RL (LAC): the job's own actor alone, trained beside the selection "
+        "but not executed by it (selection.include_actor=false in the paper presets); the paper's "
         "SDR is in its own unit (MBit/s) of its link-rate formula (Fig. 9: no CA3 numbers, EC "
         "for OA and CA4 only); reference rows (not in the paper): the same jobs' proposer alone "
         "(the medoid of its proposer.alone_candidates draws, no critic), scripted expert and "

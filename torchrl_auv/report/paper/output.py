@@ -32,6 +32,7 @@ __all__ = [
     "first_stage_pattern",
     "job_rows",
     "mean_std",
+    "metric_value",
     "read_eval",
     "write_table",
 ]
@@ -78,18 +79,30 @@ def mean_std(values: Sequence[float]) -> tuple[float, float]:
     return statistics.fmean(values), statistics.stdev(values) if len(values) > 1 else math.nan
 
 
+def metric_value(row: Mapping, metric: str) -> float:
+    """``metric`` of an ``eval.csv`` row (NaN where it has none). ``"return"``: the episode
+    return per AUV, minus the cost per AUV-decision times the decisions of the episode (the
+    scenes' means of each: exact where every scene ran the same number of decisions)."""
+    if metric == "return":
+        value = -row.get("cost_mean", math.nan) * row.get("decisions", math.nan)
+    else:
+        value = row.get(metric, math.nan)
+    return value if isinstance(value, float) else math.nan
+
+
 def job_rows(
     root: Path, jobs: Sequence[Job], policy: str | None, metrics: Sequence[str]
 ) -> dict[str, object]:
     """Over ``jobs`` (the seeds of one cell): ``runs`` (finished jobs), ``seeds`` and, per
     metric, ``<metric>`` (mean) and ``<metric>_std`` of the ``policy`` row (``None``: the
-    job's own framework)."""
+    job's own framework; a metric of :func:`metric_value`, ``"return"`` included: each job's
+    own value, then the mean and std over the jobs)."""
     found = [(job, read_eval(root, job)) for job in jobs]
     found = [(job, rows.get(policy or job.framework)) for job, rows in found if rows]
     found = [(job, row) for job, row in found if row is not None]
     out: dict[str, object] = {"runs": len(found), "seeds": [job.seed for job, _ in found]}
     for metric in metrics:
-        mean, std = mean_std([row.get(metric) for _, row in found])
+        mean, std = mean_std([metric_value(row, metric) for _, row in found])
         out[metric], out[f"{metric}_std"] = mean, std
     return out
 
