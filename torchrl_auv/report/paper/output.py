@@ -34,6 +34,7 @@ __all__ = [
     "mean_std",
     "metric_value",
     "read_eval",
+    "window_means",
     "write_table",
 ]
 
@@ -88,6 +89,20 @@ def metric_value(row: Mapping, metric: str) -> float:
     else:
         value = row.get(metric, math.nan)
     return value if isinstance(value, float) else math.nan
+
+
+def window_means(curves: dict, key: str, window: int) -> tuple[float, float] | None:
+    """The mean of ``key`` (of :func:`~torchrl_auv.report.curves.read_curve`'s ``curves``)
+    over the batches logged at frames ``<= window`` and over those after ``last - window``
+    (NaN where the curve is shorter than two windows: they would overlap); ``None`` when the
+    curve does not log ``key``."""
+    steps, values = curves.get(key, ([], []))
+    if not steps:
+        return None
+    first = [v for s, v in zip(steps, values, strict=True) if s <= window]
+    last = [v for s, v in zip(steps, values, strict=True) if s > steps[-1] - window]
+    return (mean_std(first)[0] if first else math.nan,
+            mean_std(last)[0] if steps[-1] >= 2 * window else math.nan)  # fmt: skip
 
 
 def job_rows(

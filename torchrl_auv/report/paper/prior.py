@@ -36,7 +36,7 @@ from pathlib import Path
 from torchrl_auv.iout.reward import COST_TERMS
 from torchrl_auv.report.curves import read_curve
 from torchrl_auv.report.paper.grid import Job
-from torchrl_auv.report.paper.output import mean_std, read_eval
+from torchrl_auv.report.paper.output import mean_std, read_eval, window_means
 from torchrl_auv.report.paper.tables import LABELS
 from torchrl_auv.report.sweeps import mean_std_text
 
@@ -123,19 +123,6 @@ def format_prior(counts: dict[str, dict]) -> list[str]:
     return lines
 
 
-def _window_means(curves: dict, key: str, window: int) -> tuple[float, float] | None:
-    """The mean of ``key`` (of :func:`read_curve`'s ``curves``) over the batches logged at
-    frames ``<= window`` and over those after ``last - window`` (NaN where the curve is shorter
-    than two windows: they would overlap); ``None`` when the curve does not log ``key``."""
-    steps, values = curves.get(key, ([], []))
-    if not steps:
-        return None
-    first = [v for s, v in zip(steps, values, strict=True) if s <= window]
-    last = [v for s, v in zip(steps, values, strict=True) if s > steps[-1] - window]
-    return (mean_std(first)[0] if first else math.nan,
-            mean_std(last)[0] if steps[-1] >= 2 * window else math.nan)  # fmt: skip
-
-
 def extreme_shares(root: str | Path, jobs: Sequence[Job], window: int = 5000) -> dict:
     """Per framework of :data:`FRAMEWORKS_WITH_PRIOR` and action dimension of
     :data:`ACTION_DIMS`: ``jobs`` (finished, no variant, whose ``train_curve.csv`` logs
@@ -153,7 +140,7 @@ def extreme_shares(root: str | Path, jobs: Sequence[Job], window: int = 5000) ->
             continue
         curves = read_curve(curve) if curve.exists() else {}
         for i, dim in enumerate(ACTION_DIMS):
-            means = _window_means(curves, f"train/selected_extreme_{i}", window)
+            means = window_means(curves, f"train/selected_extreme_{i}", window)
             if means is not None:
                 cell = out[job.framework][dim]
                 cell["jobs"] += 1

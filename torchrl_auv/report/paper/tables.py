@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from torchrl_auv.advisor.trigger import decisions_in_force
+from torchrl_auv.report.curves import read_curve
 from torchrl_auv.report.paper.grid import (
     ALPHAS,
     CONTROLLERS,
@@ -26,7 +27,13 @@ from torchrl_auv.report.paper.grid import (
     MAIN_SEA,
     Job,
 )
-from torchrl_auv.report.paper.output import first_stage_folder, job_rows, mean_std, write_table
+from torchrl_auv.report.paper.output import (
+    first_stage_folder,
+    job_rows,
+    mean_std,
+    window_means,
+    write_table,
+)
 from torchrl_auv.report.paper.published import TABLE2, TABLE3
 
 __all__ = ["ablation_tables", "table2", "table3", "table3_fixed"]
@@ -167,17 +174,60 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
         for row, (_, variant, _) in zip(rows, variants, strict=True):
             row.update(_advisor_log(root, seeds, variant))
         extra = ["consultations", "spec_changes"]
+    if experiment == "lyapunov_cost":
+        for row, (_, variant, _) in zip(rows, variants, strict=True):
+            row.update(_training_end(root, seeds, variant))
+        extra = list(TRAINING_END)
     if experiment == "sampler":
         for row, (_, variant, _) in zip(rows, variants, strict=True):
             row.update(_sampling_time(root, variant, seeds[0], earlier=out_dir / "sampler.json"))
         extra = ["sampler", "proposer_s_per_decision", "timed"]
+    note = TRAINING_END_NOTE if experiment == "lyapunov_cost" else ""
     return write_table(
         out_dir,
         experiment,
         rows,
         ["variant", "runs", *METRICS, *extra],
-        header=header + f"; Diffusion+RL (LAC), sea {MAIN_SEA}, S-Surface",
+        header=header + f"; Diffusion+RL (LAC), sea {MAIN_SEA}, S-Surface" + note,
     )
+
+
+#: the Lyapunov-cost table's training columns -> the ``train_curve.csv`` key each reads
+TRAINING_END = {"lambda_end": "train/lambda", "lyapunov_violated_end": "train/violation_rate"}
+#: frames at the end of training over which ``lyapunov_violated_end`` is averaged
+END_WINDOW = 5000
+TRAINING_END_NOTE = (
+    "; lambda_end: the Lagrange multiplier at the last training batch (train/lambda; the "
+    "presets cap it at lyapunov.lambda_max = 1); lyapunov_violated_end: the share of the "
+    "training batches' transitions that violate the Lyapunov condition, mean over the last "
+    f"{END_WINDOW:,} frames (train/violation_rate); violation_rate: the env's violations "
+    "(outside the area, or too near the seabed or the surface) per AUV-decision on the "
+    "held-out scenes"
+)
+
+
+def _training_end(root: Path, seeds: Sequence[int], variant: str) -> dict[str, float]:
+    """Over the finished jobs of ``variant`` whose ``train_curve.csv`` logs them: the last
+    ``train/lambda`` and the mean ``train/violation_rate`` of the last :data:`END_WINDOW`
+    frames (:data:`TRAINING_END`), mean and std over the seeds."""
+    values: dict[str, list[float]] = {column: [] for column in TRAINING_END}
+    for seed in seeds:
+        folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed,
+                                           variant).name  # fmt: skip
+        path = folder / "train_curve.csv"
+        if not ((folder / "eval.csv").exists() and path.exists()):
+            continue
+        curves = read_curve(path)
+        _, lam = curves.get(TRAINING_END["lambda_end"], ([], []))
+        if lam:
+            values["lambda_end"].append(lam[-1])
+        violated = window_means(curves, TRAINING_END["lyapunov_violated_end"], END_WINDOW)
+        if violated is not None:
+            values["lyapunov_violated_end"].append(violated[1])
+    out = {}
+    for column, found in values.items():
+        out[column], out[f"{column}_std"] = mean_std(found)
+    return out
 
 
 #: an applied decision whose alpha differs from the one in force by less than this (relative)
