@@ -53,7 +53,7 @@ def test_claims_are_judged_from_each_jobs_own_row(tmp_path):
             for framework in ("diffusion_rl", "diffusion_lac"):
                 cost = 3.0 if sea == "ves" else 1.0 + 0.01 * seed
                 _finish(tmp_path, Job(framework, sea, "s_surface", seed), cost_mean=cost,
-                        ssn=5.0 + seed)  # fmt: skip
+                        ssn=5.0 + seed, sdr_mbit=9.0 + seed)  # fmt: skip
     rows = judge(tmp_path, seeds)
     cost = rows[_claim("Diffusion+RL and Diffusion+RL (LAC) reach a better return")]
     outcomes = [outcome for outcome, _ in cost["comparisons"]]
@@ -72,6 +72,8 @@ def test_claims_are_judged_from_each_jobs_own_row(tmp_path):
     )
     ssn = rows[_claim("... and serve more sensor nodes")]
     assert ssn["verdict"] == "reproduced"  # 5-7 nodes against SAC's 0, every sea
+    sdr = rows[_claim("... and deliver more data (SDR)")]
+    assert sdr["verdict"] == "reproduced" and len(sdr["comparisons"]) == 6  # 9-11 against 0
     # the claims whose jobs did not run say so
     assert rows[_claim("The return falls monotonically")]["verdict"] == "not run yet"
 

@@ -374,7 +374,9 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
             *(c for m in metrics[1:] for c in (m, f"paper {m}")),
         ],
         header=header + f"; sea {MAIN_SEA}; return = -cost per AUV summed over the episode "
-        "(each seed's cost per AUV-decision x its decisions, then mean ± std over the seeds; "
+        "(each seed's cost per AUV-decision x its decisions, the means over its scenes, so "
+        "not exact where its scenes ended at different decisions; then mean ± std over the "
+        "seeds; "
         "the paper's return is on its own reward scale, and its column is in the paper's unit "
         "of 1e3); ended early: the share of the held-out scenes whose episode an AUV ended "
         "(more than 100 m outside the area, or a diverged state): such an episode sums fewer "

@@ -400,7 +400,9 @@ def write_results_page(
         "by more. A claim is *reproduced* when every comparison that ran holds, *not "
         "reproduced* when none holds and one or more is reversed, *inconclusive* when none is "
         "beyond the noise either way, *partly* otherwise. The comparisons and their numbers "
-        "are listed at the end.",
+        "are listed at the end. Claims about the end of training read each job's final "
+        "evaluation (`eval.csv`, on `eval.num_envs` held-out scenes, 4 in the paper presets), "
+        "not the last point of Fig. 7's evaluation curve (`eval.curve_envs`, 2 scenes).",
         "",
         "## The RL stage against its own prior",
         "",
