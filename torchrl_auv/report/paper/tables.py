@@ -147,6 +147,12 @@ def _variants(root, seeds, variants):
     return rows
 
 
+def _ablation_folder(root: Path, seed: int, variant: str) -> Path:
+    """The job folder of an ablation's ``variant`` (Diffusion+RL (LAC), ``MAIN_SEA``,
+    S-Surface) for ``seed``."""
+    return Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed, variant).name
+
+
 def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
                     experiment: str) -> list[Path]:  # fmt: skip
     """Beyond the paper, the full framework in ``MAIN_SEA``: ``advisor`` (the rule-based
@@ -169,7 +175,7 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
         "fig11": [(f"form {f}", f"fixed-{f}-alpha{FIXED_ALPHA}", {}) for f in FORMS],
     }[experiment]  # fmt: skip
     rows = _variants(root, seeds, variants)
-    extra = []
+    extra, note = [], ""
     if experiment == "advisor":
         for row, (_, variant, _) in zip(rows, variants, strict=True):
             row.update(_advisor_log(root, seeds, variant))
@@ -177,12 +183,11 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
     if experiment == "lyapunov_cost":
         for row, (_, variant, _) in zip(rows, variants, strict=True):
             row.update(_training_end(root, seeds, variant))
-        extra = list(TRAINING_END)
+        extra, note = list(TRAINING_END), TRAINING_END_NOTE
     if experiment == "sampler":
         for row, (_, variant, _) in zip(rows, variants, strict=True):
             row.update(_sampling_time(root, variant, seeds[0], earlier=out_dir / "sampler.json"))
         extra = ["sampler", "proposer_s_per_decision", "timed"]
-    note = TRAINING_END_NOTE if experiment == "lyapunov_cost" else ""
     return write_table(
         out_dir,
         experiment,
@@ -212,8 +217,7 @@ def _training_end(root: Path, seeds: Sequence[int], variant: str) -> dict[str, f
     frames (:data:`TRAINING_END`), mean and std over the seeds."""
     values: dict[str, list[float]] = {column: [] for column in TRAINING_END}
     for seed in seeds:
-        folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed,
-                                           variant).name  # fmt: skip
+        folder = _ablation_folder(root, seed, variant)
         path = folder / "train_curve.csv"
         if not ((folder / "eval.csv").exists() and path.exists()):
             continue
@@ -255,8 +259,7 @@ def _advisor_log(root: Path, seeds: Sequence[int], variant: str) -> dict[str, fl
     where no job has a log)."""
     counts = []
     for seed in seeds:
-        folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed,
-                                           variant).name  # fmt: skip
+        folder = _ablation_folder(root, seed, variant)
         log = folder / "advisor.jsonl"
         if (folder / "eval.csv").exists() and log.exists():
             records = decisions_in_force(log)
@@ -282,7 +285,7 @@ def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5, *,
     from torchrl_auv.modules import DiffusionProposer
     from torchrl_auv.training import make_history_env
 
-    folder = Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed, variant).name
+    folder = _ablation_folder(root, seed, variant)
     config = folder / ".hydra" / "config.yaml"
     if not config.exists():
         return {"sampler": "", "proposer_s_per_decision": math.nan, "timed": ""}
