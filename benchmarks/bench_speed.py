@@ -8,7 +8,7 @@
   and with ``compile_physics=True`` (target <= 5 ms); the first step's compilation on a fresh
   inductor cache and on a warm one (targets 30 s and 5 s), each in its own process.
 * The same env at batch 256: AUV-decisions per second (target >= 50,000).
-* The gymnasium id ``torchrl_auv/DataCollection-v1`` (one scene, 2 AUVs): ms per decision, eager
+* The gymnasium id ``torchrl_auv/DataCollection-v2`` (one scene, 2 AUVs): ms per decision, eager
   and compiled (target: the same speed as the env at batch 1).
 
 ``--before PATH`` runs the same measurements on the package found at ``PATH`` (for example a
@@ -122,7 +122,7 @@ def measure_all(quick: bool, pvs_src: str | None) -> dict[str, float]:
         else:
             out[f"{name}_rate"] = batch * env.num_auvs / seconds
     for compiled in (False, True):
-        gym_env = gymnasium.make("torchrl_auv/DataCollection-v1", sea_state="es",
+        gym_env = gymnasium.make("torchrl_auv/DataCollection-v2", sea_state="es",
                                  compile_physics=compiled)  # fmt: skip
         gym_env.reset(seed=0)
         action = gym_env.action_space.sample()

@@ -36,7 +36,7 @@ assert package.joinpath("recipes", "train.py").is_file()
 assert package.joinpath("recipes", "sac", "paper.yaml").is_file()
 import torchrl_auv.envs  # registers the gymnasium ids
 from torchrl_auv.envs import AUVTrackingEnv, DataCollectionEnv
-for env_id in ("torchrl_auv/Tracking-v0", "torchrl_auv/DataCollection-v1"):
+for env_id in ("torchrl_auv/Tracking-v0", "torchrl_auv/DataCollection-v2"):
     env = gymnasium.make(env_id)
     obs, _ = env.reset(seed=0)
     obs, *_ = env.step(env.action_space.sample())
@@ -77,7 +77,7 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
     work.mkdir()
     out = _run([str(python), "-c", IMPORT_CHECK.format(repo=REPO)], cwd=work, env=env)
     print(out)
-    assert "torchrl_auv/DataCollection-v1 observation (74,)" in out
+    assert "torchrl_auv/DataCollection-v2 observation (76,)" in out
     assert "DataCollectionEnv rollout (2, 3)" in out
 
     out = _run([str(python), str(REPO / "examples" / "lac_vs_sac.py"), "--env", "pendulum",

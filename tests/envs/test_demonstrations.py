@@ -80,8 +80,8 @@ def test_bad_input(tmp_path):
 def test_data_collection_samples_are_per_auv_and_chunks_stay_in_their_episode():
     data = collect_demonstrations("data_collection", episodes=2, max_steps=5, horizon=3, history=4)
     assert data.batch_size == (2 * 2 * 5,)  # scenes x AUVs x decisions
-    assert data["observation"].shape == (20, 37)
-    assert data["history", "observation"].shape == (20, 4, 37)
+    assert data["observation"].shape == (20, 38)
+    assert data["history", "observation"].shape == (20, 4, 38)
     assert data["history", "action"].shape == (20, 4, 3)
     assert sorted(set(data["agent"].tolist())) == [0, 1]
     for i in range(20):
@@ -135,7 +135,7 @@ def test_cli_writes_a_data_collection_dataset(tmp_path):
     buffer = load_demonstrations(out)
     assert len(buffer) == 8  # 1 scene x 2 AUVs x 4 decisions
     batch = buffer.sample(3)
-    assert batch["history", "observation"].shape == (3, 10, 37)
+    assert batch["history", "observation"].shape == (3, 10, 38)
     assert batch["action_chunk"].shape == (3, 8, 3)
 
 
@@ -184,7 +184,7 @@ def test_a_sampling_policys_batches_depend_on_seed_and_batch_alone():
     torch.manual_seed(0)
     model = {"noise_model": "mlp", "hidden": 16, "cond_dim": 8, "depth": 1,
              "schedule": "linear", "num_train_steps": 50}  # fmt: skip
-    proposer = untrained_proposer(37, 3, history=2, horizon=2, model=model)
+    proposer = untrained_proposer(38, 3, history=2, horizon=2, model=model)
     proposer.configure_sampling(num_inference_steps=2, sampler="ddim")
     options = {"env": "data_collection", "episodes": 1, "max_steps": 6, "horizon": 2,
                "history": 2, "seed": 3, "policy": partial(_dagger_policy, proposer)}  # fmt: skip

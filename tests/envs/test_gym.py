@@ -39,14 +39,14 @@ def test_registration_is_idempotent():
     register_gymnasium_ids()
     importlib.reload(torchrl_auv.envs)
     assert "torchrl_auv/Tracking-v0" in gymnasium.registry
-    assert "torchrl_auv/DataCollection-v1" in gymnasium.registry
+    assert "torchrl_auv/DataCollection-v2" in gymnasium.registry
 
 
 def test_data_collection_id_passes_the_env_checker():
-    env = gymnasium.make("torchrl_auv/DataCollection-v1", num_auvs=2, max_steps=4)
+    env = gymnasium.make("torchrl_auv/DataCollection-v2", num_auvs=2, max_steps=4)
     check_env(env.unwrapped, skip_render_check=True)
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (74,) and env.action_space.shape == (6,)
+    assert obs.shape == (76,) and env.action_space.shape == (6,)
     done, info = False, {}
     while not done:
         _, reward, terminated, truncated, info = env.step(env.action_space.sample())
@@ -54,7 +54,7 @@ def test_data_collection_id_passes_the_env_checker():
     assert np.isfinite(reward) and info["cost"] >= 0 and "ssn" in info["metrics"]
 
 
-@pytest.mark.parametrize("env_id", ["torchrl_auv/DataCollection-v1", "torchrl_auv/Tracking-v0"])
+@pytest.mark.parametrize("env_id", ["torchrl_auv/DataCollection-v2", "torchrl_auv/Tracking-v0"])
 def test_a_non_finite_or_misshapen_gymnasium_action_is_an_error_naming_it(env_id):
     """Through gymnasium a NaN action used to end the episode as diverged with NaN metrics."""
     env = gymnasium.make(env_id, max_steps=4)

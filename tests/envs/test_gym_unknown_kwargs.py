@@ -55,7 +55,7 @@ def test_data_collection_id_still_refuses_flatten_agents():
     ("env_id", "obs_dim", "act_dim", "kwargs"),
     [
         (TRACKING_ID, 16, 3, {"sea_state": "es"}),
-        (DATA_COLLECTION_ID, 74, 6, {"num_auvs": 2}),
+        (DATA_COLLECTION_ID, 76, 6, {"num_auvs": 2}),
     ],
 )
 def test_torchrl_gym_env_builds_and_rolls_out(env_id, obs_dim, act_dim, kwargs):

@@ -1,4 +1,4 @@
-"""The localisation errors a real system has (``shared/spec/data_collection.md``, "Localisation"
+"""The localisation errors a real system has (``docs/spec/data_collection.md``, "Localisation"
 v2): the ASV's GNSS error, the wave-driven bearing error, USBL dropouts, DVL bottom lock, the
 altimeter; and the filter's position error they give, per sea state.
 

@@ -1,6 +1,6 @@
 """USBL fixes: covariance by hand, off-axis spread growing with range, dropout.
 
-Reference: the ``usbl_fix`` docstring and ``shared/spec/data_collection.md`` ("Localisation"):
+Reference: the ``usbl_fix`` docstring and ``docs/spec/data_collection.md`` ("Localisation"):
 range noise :math:`\\sigma_\\rho = f\\rho`, bearing noise :math:`\\sigma_b` on azimuth and
 elevation, covariance :math:`\\sigma_\\rho^2 \\hat\\ell\\hat\\ell^\\top + (\\rho\\sigma_b)^2
 (I - \\hat\\ell\\hat\\ell^\\top)`: a bearing error of :math:`\\sigma_b` rad at range

@@ -6,7 +6,15 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from torchrl_auv.iout import METRIC_KEYS, CostWeights, IoUTConfig, TaskMetrics, task_cost
+from torchrl_auv.iout import (
+    METRIC_KEYS,
+    CostWeights,
+    IoUTConfig,
+    TaskMetrics,
+    link_rate,
+    stability_cost,
+    task_cost,
+)
 
 
 def _p_move(v: float) -> float:
@@ -109,96 +117,124 @@ def test_batched_scenes_accumulate_independently():
         )
 
 
-def _random_events(shape, g, *, progress=2.0, overflow=100.0):
+def _random_events(shape, g):
+    n = shape[-1]
     return TensorDict(
         {
             "target_distance": 300 * torch.rand(shape, generator=g),
-            "progress": progress * (2 * torch.rand(shape, generator=g) - 1),
+            "progress": 4.0 * (2 * torch.rand(shape, generator=g) - 1),
             "hovering": torch.rand(shape, generator=g) < 0.3,
+            "rate": 3e4 * (1 + torch.rand(shape, generator=g)),
+            "service_time": torch.rand(shape, generator=g),
+            "delivery_age": 1000 * torch.rand(shape, generator=g),
             "collision": torch.rand(shape, generator=g) < 0.1,
             "violation": torch.rand(shape, generator=g) < 0.1,
-            "overflow": overflow * torch.rand(shape[0], generator=g),
         },
-        batch_size=shape[:1],
+        batch_size=shape[:1] if n else shape,
     )
 
 
 def test_cost_is_bounded_by_the_sum_of_the_weights():
-    """Every term is clipped to [0, 1] before its weight, the scene terms are shared by the N
-    AUVs: 0 <= c_j <= w_d + w_p + w_e + w_c + w_v + (w_b + w_o) / N, also for extreme events
-    (moving away at 20 m/s, 100x the expected overflow, full buffers, 3 m/s)."""
+    """Every term is clipped to [0, 1] before its weight: 0 <= c_j <= w_m + w_e + w_c + w_v,
+    also at the extremes (an age far beyond the scale, 3 m/s, collision and violation)."""
     cfg, w = IoUTConfig(), CostWeights()
     g = torch.Generator().manual_seed(0)
     shape = (256, 2)
-    events = _random_events(shape, g, progress=40.0, overflow=1e4)
+    events = _random_events(shape, g)
     events["collision"][:8] = True
     events["violation"][:8] = True
-    events["target_distance"][:8] = 1e4
-    events["progress"][:8] = -40.0
     events["hovering"][:8] = False
+    events["delivery_age"][:8] = 1e5
     speed = 3.0 * torch.rand(shape, generator=g)
     speed[:8] = 3.0
-    buffer = cfg.buffer_capacity * torch.rand(256, 60, generator=g)
-    buffer[:8] = cfg.buffer_capacity
-    cost, terms = task_cost(events, speed, buffer, torch.full((256, 60), 7.75), cfg)
-    bound = w.distance + w.regress + w.energy + w.collision + w.violation
-    bound += (w.waiting + w.overflow) / 2
+    cost, terms = task_cost(events, speed, cfg)
+    bound = w.mission + w.energy + w.collision + w.violation
     assert cost.shape == shape and (cost >= 0).all() and (cost <= bound + 1e-6).all()
-    assert w.max_cost(2) == pytest.approx(bound)
+    assert w.max_cost() == pytest.approx(bound)
     assert cost[:8].max().item() > 0.95 * bound  # the bound is reached by the extremes
     for key in terms.keys():
         assert (terms[key] >= 0).all(), key
     torch.testing.assert_close(sum(terms[k] for k in terms.keys()), cost)
 
 
-def test_the_scene_terms_count_once_for_the_scene():
-    """Summed over the AUVs (the flat layout's cost), the waiting and overflow terms equal the
-    scene's w_b * fill and w_o * overflow fraction, whatever the number of AUVs."""
-    g = torch.Generator().manual_seed(1)
-    for n in (1, 2, 4):
-        cfg = IoUTConfig(num_auvs=n)
-        events = _random_events((8, n), g)
-        buffer = cfg.buffer_capacity * torch.rand(8, 60, generator=g)
-        rates = torch.full((8, 60), 7.75)
-        _, terms = task_cost(events, torch.ones(8, n), buffer, rates, cfg)
-        fill = buffer.sum(-1) / (60 * cfg.buffer_capacity)
-        torch.testing.assert_close(terms["waiting"].sum(-1), CostWeights().waiting * fill)
-        overflow = (events["overflow"] / (60 * 7.75)).clamp(max=1.0)
-        torch.testing.assert_close(terms["overflow"].sum(-1), CostWeights().overflow * overflow)
-
-
 def test_cost_terms_by_hand():
-    cfg = IoUTConfig(num_sensors=12)
-    w = CostWeights()
+    """AUV 0 delivers for the whole decision at the rate 18 m from its node, AUV 1 is on its
+    way, 322.58 decisions after its last delivery (half the age scale), at 2 m/s, colliding
+    and in violation."""
+    cfg, w = IoUTConfig(num_sensors=12), CostWeights()
+    r18 = link_rate(torch.tensor(18.0, dtype=torch.float64), cfg).item()
+    r8 = link_rate(torch.tensor(8.0, dtype=torch.float64), cfg).item()
     events = TensorDict(
         {
-            "target_distance": torch.tensor([[141.42135623730951, 0.0]], dtype=torch.float64),
-            "progress": torch.tensor([[-1.5, 0.0]], dtype=torch.float64),
-            "hovering": torch.tensor([[False, True]]),
-            "collision": torch.tensor([[True, True]]),
+            "hovering": torch.tensor([[True, False]]),
+            "rate": torch.tensor([[r18, 0.0]], dtype=torch.float64),
+            "service_time": torch.tensor([[1.0, 0.0]], dtype=torch.float64),
+            "delivery_age": torch.tensor([[0.0, cfg.age_scale / 2]], dtype=torch.float64),
+            "collision": torch.tensor([[False, True]]),
             "violation": torch.tensor([[False, True]]),
-            "overflow": torch.tensor([93.0], dtype=torch.float64),
         },
         batch_size=[1],
     )
-    rates = torch.tensor([[4.0, 6.0, 9.0, 12.0] * 3], dtype=torch.float64)  # 93 packets/decision
-    buffer = torch.full((1, 12), 1250.0, dtype=torch.float64)  # a quarter of the capacity
-    cost, terms = task_cost(
-        events, torch.tensor([[2.0, 0.0]], dtype=torch.float64), buffer, rates, cfg
-    )
-    shared = (w.waiting * 0.25 + w.overflow * 1.0) / 2  # split between the two AUVs
-    expected0 = (
-        w.distance * 0.5  # 141.42 m of a 282.84 m diagonal
-        + w.regress * 1.5 / 2.0  # moved 1.5 m away in one 1 s decision, scale 2 m/s
-        + w.energy * _p_move(2.0) / 500.0
-        + w.collision
-        + shared
-    )
-    expected1 = w.energy * 105.0 / 500.0 + w.collision + w.violation + shared
+    cost, terms = task_cost(events, torch.tensor([[0.0, 2.0]], dtype=torch.float64), cfg)
+    expected0 = w.mission * (1 - r18 / r8) + w.energy * 105.0 / 500.0
+    expected1 = w.mission * 0.5 + w.energy * _p_move(2.0) / 500.0 + w.collision + w.violation
     torch.testing.assert_close(cost, torch.tensor([[expected0, expected1]], dtype=torch.float64))
-    assert terms["regress"][0, 0].item() == pytest.approx(w.regress * 0.75)
-    # moving away faster than the reference speed saturates the term at its weight
-    events["progress"][0, 0] = -7.0
-    _, terms = task_cost(events, torch.tensor([[2.0, 0.0]], dtype=torch.float64), buffer,
-                         rates, cfg)  # fmt: skip
-    assert terms["regress"][0, 0].item() == pytest.approx(w.regress)
+    assert terms["delivery_age"][0, 0] == 0.0 and terms["undelivered"][0, 1] == 0.0
+    # the last decision of a service delivers 0.4 s of it: 0.6 of the decision is undelivered
+    events["service_time"][0, 0] = 0.4
+    events["rate"][0, 0] = r8
+    _, terms = task_cost(events, torch.tensor([[0.0, 2.0]], dtype=torch.float64), cfg)
+    assert terms["undelivered"][0, 0].item() == pytest.approx(0.6 * w.mission)
+
+
+def test_an_auv_that_does_not_deliver_pays_more_with_every_decision_until_the_whole_weight():
+    cfg = IoUTConfig(num_auvs=1, num_sensors=1)
+    ages = torch.tensor([[1.0], [100.0], [cfg.age_scale], [10 * cfg.age_scale]])
+    events = TensorDict(
+        {"hovering": torch.zeros(4, 1, dtype=torch.bool), "rate": torch.zeros(4, 1),
+         "service_time": torch.zeros(4, 1), "delivery_age": ages,
+         "collision": torch.zeros(4, 1, dtype=torch.bool),
+         "violation": torch.zeros(4, 1, dtype=torch.bool)},
+        batch_size=[4],
+    )  # fmt: skip
+    _, terms = task_cost(events, torch.zeros(4, 1), cfg)
+    age = terms["delivery_age"][:, 0]
+    assert (age[1:] >= age[:-1]).all() and age[0] > 0
+    assert age[2].item() == pytest.approx(1.0) and age[3].item() == pytest.approx(1.0)
+
+
+def test_each_auvs_cost_is_its_own():
+    """What one AUV does (its delivery, speed, violation) moves no other AUV's cost."""
+    cfg = IoUTConfig()
+    g = torch.Generator().manual_seed(3)
+    events = _random_events((64, 2), g)
+    events["collision"][:] = False
+    speed = 3.0 * torch.rand(64, 2, generator=g)
+    cost, _ = task_cost(events, speed, cfg)
+    other = events.clone()
+    for key in ("hovering", "violation"):
+        other[key][:, 1] = ~other[key][:, 1]
+    for key in ("rate", "service_time", "delivery_age"):
+        other[key][:, 1] = other[key][:, 1].flip(0)
+    other_speed = speed.clone()
+    other_speed[:, 1] = speed[:, 1].flip(0)
+    changed, _ = task_cost(other, other_speed, cfg)
+    torch.testing.assert_close(changed[:, 0], cost[:, 0])
+    assert not torch.allclose(changed[:, 1], cost[:, 1])
+
+
+def test_stability_cost_by_hand():
+    cfg, w = IoUTConfig(), CostWeights()
+    events = TensorDict(
+        {
+            "target_distance": torch.tensor([[0.0, cfg.area_diagonal_m / 4]]),
+            "progress": torch.tensor([[0.0, -7.0]]),
+            "collision": torch.tensor([[False, True]]),
+            "violation": torch.tensor([[False, True]]),
+        },
+        batch_size=[1],
+    )
+    stability = stability_cost(events, cfg)
+    expected = w.distance * 0.25 + w.regress * 1.0 + w.collision + w.violation
+    torch.testing.assert_close(stability, torch.tensor([[0.0, expected]]))
+    assert expected == pytest.approx(w.max_stability_cost() - 0.75 * w.distance)

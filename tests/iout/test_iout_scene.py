@@ -171,7 +171,7 @@ def test_step_any_batch_shape_and_dtype(batch):
         state, events = step(state, pos, cfg, generator=g)
         speed = torch.ones(*batch, 2, dtype=torch.float64)
         acc = metrics.update(acc, events, speed, speed)
-        cost, _ = task_cost(events, speed, state["nodes", "buffer"], state["nodes", "rate"], cfg)
+        cost, _ = task_cost(events, speed, cfg)
         assert cost.shape == (*batch, 2) and cost.dtype == torch.float64
     assert events["rate"].dtype == torch.float64 and events["overflow"].shape == batch
     out = metrics.finalize(acc)

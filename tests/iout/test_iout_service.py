@@ -157,3 +157,26 @@ def test_sticky_targets_option_keeps_the_target():
         state, events = step(state, pos, cfg, generator=g)
         assert not events["started"].any()
     assert torch.equal(state["auvs", "target"], first)
+
+
+def test_the_delivery_age_starts_full_resets_while_delivering_and_grows_otherwise():
+    """Task v3: the age of an AUV's last delivery is the age scale at reset (nothing
+    delivered yet), 0 after every decision with time in service, one more otherwise."""
+    cfg = IoUTConfig(num_auvs=1, num_sensors=5)
+    state, far = _quiet_scene(cfg, 2500.0)
+    assert state["auvs", "delivery_age"].item() == pytest.approx(cfg.age_scale)
+    node = gather_nodes(state["nodes", "position"], state["auvs", "target"])
+    parked = node - torch.tensor([6.0, 0.0, 8.0], dtype=torch.float64)
+    ages = []
+    for k in range(3):  # away from the node: no delivery
+        state, events = step(state, far, cfg, generator=_gen(10 + k))
+        ages.append(events["delivery_age"].item())
+    assert ages == pytest.approx([cfg.age_scale + 1, cfg.age_scale + 2, cfg.age_scale + 3])
+    state, events = step(state, parked, cfg, generator=_gen(20))  # service starts: moving
+    assert events["started"].item() and events["delivery_age"].item() > cfg.age_scale
+    while not events["completed"].item():
+        state, events = step(state, parked, cfg, generator=_gen(30))
+        assert events["hovering"].item() and events["delivery_age"].item() == 0.0
+    state, events = step(state, parked, cfg, generator=_gen(40))  # the next leg begins
+    assert not events["hovering"].item() and events["delivery_age"].item() == 1.0
+    assert torch.equal(state["auvs", "delivery_age"], events["delivery_age"])

@@ -114,7 +114,7 @@ def _terms_job(root, job, own, alone, *, ended=(0.0, 0.0), variant_csv=False):
     """``eval.csv`` with the cost, whether a scene ended early and each term's share, for the
     job's row and its proposer alone's; ``own`` / ``alone``: ``(cost_mean, {term: share})``
     (terms not named share what is left equally)."""
-    from torchrl_auv.iout.reward import COST_TERMS
+    from torchrl_auv.report.paper.prior import COST_TERMS_V2 as COST_TERMS
 
     folder = root / "jobs" / job.name
     folder.mkdir(parents=True)

@@ -55,9 +55,9 @@ def test_the_replay_buffer_stores_only_what_the_losses_read():
     stored = training.select_for_replay(rollout)
     assert stored.batch_size == (6,)
     assert set(stored.keys(True, True)) == set(training.REPLAY_KEYS)
-    # 2 AUVs: obs 37 + 37 (next) + action 3 + reward, cost, stability cost float32; done,
+    # 2 AUVs: obs 38 + 38 (next) + action 3 + reward, cost, stability cost float32; done,
     # terminated bool
-    expected = 2 * ((37 + 37 + 3 + 1 + 1 + 1) * 4 + 2 * 1)
+    expected = 2 * ((38 + 38 + 3 + 1 + 1 + 1) * 4 + 2 * 1)
     assert training.bytes_per_frame(stored[0]) == expected
     whole = sum(t.numel() * t.element_size() for t in rollout[0, 0].values(True, True))
     assert whole > 20 * expected  # the env's tensordict carries the simulator state

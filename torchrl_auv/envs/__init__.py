@@ -2,7 +2,8 @@
 
 Owns the ``EnvBase`` classes that wire physics, control, estimation and the sensor network
 together (thin by design: task logic lives in the layers below), their transforms (the
-state-action history the diffusion proposer reads), scripted experts and gymnasium ids.
+state-action history the diffusion proposer reads), the scripted expert and the reference
+policies beside it (idle, lazy), and gymnasium ids.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from torchrl_auv.envs.data_collection import SIM_KEY, DataCollectionEnv
 from torchrl_auv.envs.experts import ScriptedExpert
 from torchrl_auv.envs.gym import DataCollectionGymEnv, TrackingGymEnv, register_gymnasium_ids
 from torchrl_auv.envs.history import StateActionHistory, history_key_for
+from torchrl_auv.envs.reference_policies import IdlePolicy, LazyExpert
 from torchrl_auv.envs.tracking import AUVTrackingEnv
 
 __all__ = [
@@ -18,6 +20,8 @@ __all__ = [
     "AUVTrackingEnv",
     "DataCollectionEnv",
     "DataCollectionGymEnv",
+    "IdlePolicy",
+    "LazyExpert",
     "ScriptedExpert",
     "StateActionHistory",
     "TrackingGymEnv",

@@ -1,6 +1,6 @@
 """``DataCollectionEnv``: a fleet of REMUS-100s collecting data from underwater sensor nodes.
 
-The paper's evaluation task (``shared/spec/data_collection.md``). The env wires the layers
+The paper's evaluation task (``docs/spec/data_collection.md``). The env wires the layers
 below together and stays thin: the sensor network, target rule, service, link, metrics and
 cost live in :mod:`torchrl_auv.iout`; the vehicles, controllers, sea and Kalman filter in
 :class:`~torchrl_auv.envs.vehicles.VehicleStack`.
@@ -112,51 +112,54 @@ class DataCollectionEnv(EnvBase):
     a NaN or infinite entry, or an action of another shape, is a ``ValueError`` naming the key
     and the expected shape (a NaN used to end the episode as "diverged" without a word).
 
-    **Observation** ``("agents", "observation")`` ``[*B, N, 37]`` float32 (``"observation"``
-    ``[*B, 37 N]`` flat), computed from the Kalman estimate and the vehicle's own sensors, never
-    the true pose. Entries 0-22 are the task features of :mod:`torchrl_auv.iout.observation`
+    **Observation** ``("agents", "observation")`` ``[*B, N, 38]`` float32 (``"observation"``
+    ``[*B, 38 N]`` flat), computed from the Kalman estimate and the vehicle's own sensors, never
+    the true pose. Entries 0-23 are the task features of :mod:`torchrl_auv.iout.observation`
     (target offset and distance, target fill and rate, has-target, in-service, hover time
     left, altimeter altitude, depth, nearest AUV offset and distance, services so far, time
     fraction of ``max_steps``, the signed distances to the four edges, the current estimate
-    north and east); entries 23-36 are :data:`VEHICLE_FEATURES`: body velocity ``u^, v^, w^``
+    north and east, and the age of the AUV's last delivery over ``age_scale``, at most 1);
+    entries 24-37 are :data:`VEHICLE_FEATURES`: body velocity ``u^, v^, w^``
     (m/s), rates ``p, q, r`` (rad/s), roll and pitch (rad), ``sin``/``cos`` of the compass
     heading, ``(z_sp - z^)/10``, ``sin``/``cos`` of ``psi_sp - psi^`` and ``n_sp / 1525``.
     The altimeter reads the altitude with 0.1 m noise up to 30 m (beyond: 30); the current
     estimate is the scene's current with 0.05 m/s noise per axis (an ADCP, ours).
 
-    **Cost and reward** ``("agents", "cost" | "reward")`` ``[*B, N, 1]``, per AUV
-    (:func:`torchrl_auv.iout.task_cost`, weights :class:`~torchrl_auv.iout.CostWeights`), every
-    term clipped to [0, 1] before its weight:
+    **Cost and reward** ``("agents", "cost" | "reward")`` ``[*B, N, 1]``, per AUV, task v3
+    (:func:`torchrl_auv.iout.task_cost`, weights :class:`~torchrl_auv.iout.CostWeights`, the
+    design and its measurements in ``docs/spec/data_collection.md``), every term clipped to
+    [0, 1] before its weight:
 
     .. math::
 
-        c_j = {} & w_d \min(1, \tfrac{d_j}{D})
-            + w_p \min(1, \tfrac{\max(0, -\Delta_j)}{2\,\mathrm{m}})
+        c_j = {} & w_m \begin{cases} 1 - \min(1, \tfrac{R_j \tau_j}{R_{ref} \Delta t})
+                       & \text{in service} \\
+                   \min(1, \tfrac{a_j}{A}) & \text{otherwise} \end{cases}
             + w_e \min(1, \tfrac{P_j}{500\,\mathrm{W}}) \\
             & + w_c 1[\text{collision}_j] + w_v 1[\text{violation}_j]
-            + \tfrac{1}{N}\big(w_b \tfrac{\sum_i b_i}{M C_{max}}
-            + w_o \min(1, \tfrac{N_{DO}}{\sum_i \lambda_i})\big) \\
-            & (+\ c_{term} \text{ for the AUV that ends the episode}),
+            \ (+\ c_{term} \text{ for the AUV that ends the episode}),
 
-    with :math:`d_j` the distance to the target, :math:`\Delta_j` the progress toward it in the
-    decision, :math:`P_j` the EC model's power at the AUV's mean speed through the water
-    (capped at 3 m/s, inside the model's domain), or 105 W in service, :math:`b_i` the data
-    still waiting in the nodes (the task's goal: serving empties a buffer) and :math:`N_{DO}`
-    the overflow; the two scene terms are shared by the AUVs, so the flat layout's summed cost
-    counts them once. Defaults :math:`w_d = 1, w_p = 1, w_e = 0.2, w_c = 5, w_v = 5, w_b = 2,
-    w_o = 0.5`, so :math:`0 \le c_j \le c_{max} = 13.45` for two AUVs; ``termination_cost``
-    :math:`c_{term} = N c_{max} / (1 - 0.99) = 2690` by default (ending an episode is never
-    cheaper than continuing it, for any discount up to 0.99). ``reward = -cost`` exactly (one
-    learning signal for every framework). ``"cost_terms"`` holds the weighted terms.
-    ``env.reward_key`` is the reward; rescale every reward key together (``reward_key``). Flat: the
-    sums over AUVs, ``[*B, 1]``.
+    with :math:`R_j \tau_j` the bits AUV :math:`j` delivered in the decision, :math:`R_{ref}`
+    the link's rate 8 m from a node, :math:`a_j` the decisions since it last delivered data
+    (observation ``delivery_age``; :math:`A` at reset) and :math:`A` = ``age_scale`` (645
+    decisions by default: the time an average node takes to fill an empty buffer),
+    :math:`P_j` the EC model's power at the AUV's mean speed through the water (capped at
+    3 m/s, inside the model's domain), or 105 W in service. Delivering data is what lowers an
+    AUV's cost, and each AUV's cost is its own (only a collision involves another). Defaults
+    :math:`w_m = 1, w_e = 0.2, w_c = 2, w_v = 1`, so :math:`0 \le c_j \le c_{max} = 4.2`;
+    ``termination_cost`` :math:`c_{term} = N c_{max} / (1 - 0.99) = 840` for two AUVs (ending
+    an episode is never cheaper than continuing it, for any discount up to 0.99).
+    ``reward = -cost`` exactly (one learning signal for every framework). ``"cost_terms"``
+    holds the weighted terms (``undelivered``, ``delivery_age``, ``energy``, ``collision``,
+    ``violation``). ``env.reward_key`` is the reward; rescale every reward key together
+    (``reward_key``). Flat: the sums over AUVs, ``[*B, 1]``.
 
     **Stability cost** ``("agents", "stability_cost")`` ``[*B, N, 1]`` (flat: the sum,
-    ``"stability_cost"``): :func:`torchrl_auv.iout.stability_cost`, the distance, regress,
-    collision and violation terms alone (0 in service, at most 12 per AUV), plus
-    :math:`12 / (1 - 0.99) = 1200` for the AUV that ends the episode: the cost a Lyapunov
-    critic can decrease along trajectories (``lyapunov.cost=stability``); not part of the
-    reward.
+    ``"stability_cost"``): :func:`torchrl_auv.iout.stability_cost`, the normalised distance
+    to the target, moving away from it, and the collision and violation terms (0 in service,
+    at most 5 per AUV), plus :math:`5 / (1 - 0.99) = 500` for the AUV that ends the episode:
+    the cost a Lyapunov critic can decrease along an approach (``lyapunov.cost=stability``); a
+    separate signal, not part of the reward.
 
     **Start state.** Per scene a new seabed, node positions, rates and initial fills
     (U(0, 1000) packets), a new ocean (as deep as the scene's mean seabed), the AUVs 20 m apart
@@ -206,7 +209,11 @@ class DataCollectionEnv(EnvBase):
     any other keyword raises Python's usual ``TypeError: ... got an unexpected keyword
     argument '<name>'`` (which TorchRL's ``GymEnv`` relies on to drop ``frameskip``).
 
-    **Version history.** v2: the simulator state under ``"sim"`` (was 12 top-level keys).
+    **Version history.** v3 (task v3, gymnasium id ``DataCollection-v2``): the cost pays for
+    the mission (the delivery share in service, the age of the AUV's last delivery otherwise)
+    instead of the data waiting in the whole network; weights 1 / 0.2 / 2 / 1; the stability
+    cost computed from the events; ``delivery_age`` observed (38 features). v2: the simulator
+    state under ``"sim"`` (was 12 top-level keys).
     v1 (spec v2): termination only on divergence or 100 m out, derived
     terminal cost, peers truncated; ``reward = -cost`` with the waiting data in the cost;
     station keeping replaces the loiter; re-service above 10 % fill; edges, altimeter and
@@ -217,10 +224,10 @@ class DataCollectionEnv(EnvBase):
         >>> env = DataCollectionEnv(batch_size=[2], seed=0)
         >>> td = env.rollout(3)
         >>> td["agents", "observation"].shape, td["next", "agents", "cost"].shape
-        (torch.Size([2, 3, 2, 37]), torch.Size([2, 3, 2, 1]))
+        (torch.Size([2, 3, 2, 38]), torch.Size([2, 3, 2, 1]))
         >>> flat = DataCollectionEnv(batch_size=[2], seed=0, flatten_agents=True)
         >>> flat.rollout(3)["observation"].shape
-        torch.Size([2, 3, 74])
+        torch.Size([2, 3, 76])
     """
 
     batch_locked = True
@@ -292,7 +299,7 @@ class DataCollectionEnv(EnvBase):
     # -- keys ----------------------------------------------------------------------------
     @property
     def observation_dim(self) -> int:
-        """Features per AUV (37: ``AGENT_OBSERVATION_FEATURES``)."""
+        """Features per AUV (38: ``AGENT_OBSERVATION_FEATURES``)."""
         return len(AGENT_OBSERVATION_FEATURES)
 
     @property
@@ -468,7 +475,7 @@ class DataCollectionEnv(EnvBase):
         )
 
     def _observe(self, state: TensorDictBase) -> torch.Tensor:
-        """Per-AUV observation ``[*B, N, 37]`` from the filter's estimate and the sensors."""
+        """Per-AUV observation ``[*B, N, 38]`` from the filter's estimate and the sensors."""
         eta_hat, nu_hat = self.vehicles.estimate(state)
         sensors = state["sensors"]
         task_features = iout.task_observation(
@@ -558,8 +565,7 @@ class DataCollectionEnv(EnvBase):
         accumulators = self.task_metrics.update(
             td["accumulators"], events, speed, decision["shaft_power_sum"] / steps
         )
-        cost, terms = iout.task_cost(events, speed, task["nodes", "buffer"],
-                                     task["nodes", "rate"], cfg, self.cost_weights)  # fmt: skip
+        cost, terms = iout.task_cost(events, speed, cfg, self.cost_weights)
 
         # the ASV follows the fleet and gives every AUV a USBL fix; the filters take them
         asv, gnss, fix, fix_cov, valid = asv_fixes(td["asv"], td["asv_gnss_error"], position,
@@ -581,7 +587,8 @@ class DataCollectionEnv(EnvBase):
         ending = iout.ending_auvs(eta, nu, act, cfg, self.exit_margin_m)  # [*B, N]
         cost = iout.with_termination(cost, ending, self.termination_cost)
         stability_end = self.cost_weights.stability_termination_cost()
-        stability = iout.with_termination(iout.stability_cost(terms), ending, stability_end)
+        stability = iout.stability_cost(events, cfg, self.cost_weights)
+        stability = iout.with_termination(stability, ending, stability_end)
         step_count = state["step_count"] + 1
         terminated, truncated, done = iout.episode_flags(ending, step_count, self.max_steps)
 

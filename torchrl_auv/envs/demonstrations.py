@@ -13,7 +13,7 @@ Command line::
     python -m torchrl_auv.cli.demonstrations --env tracking --episodes 8 --out demos/
     python -m torchrl_auv.cli.demonstrations --env data_collection --episodes 4 --out demos_dc/
 
-Keys of a sample: ``observation`` ``[obs]`` (16 tracking, 37 data collection);
+Keys of a sample: ``observation`` ``[obs]`` (16 tracking, 38 data collection);
 ``("history", "observation")`` ``[L, obs]``; ``("history", "action")`` ``[L, 3]``;
 ``("history", "mask")`` ``[L]``; ``action`` ``[3]`` (the expert's action now);
 ``action_chunk`` ``[H, 3]``; ``action_chunk_mask`` ``[H]``; ``overridden`` (bool: the env

@@ -79,11 +79,15 @@ class ScriptedExpert(TensorDictModuleBase):
         else:
             if self._flat:
                 obs = obs.unflatten(-1, (self._num_auvs, -1))
-            action = _collection_action(obs, self._task, self.config)
+            action = self._collection_action(obs)
             if self._flat:
                 action = action.flatten(-2)
         tensordict.set(self.out_keys[0], action.to(obs.dtype))
         return tensordict
+
+    def _collection_action(self, obs: torch.Tensor) -> torch.Tensor:
+        """Data collection: actions ``[*B, N, 3]`` from observations ``[*B, N, 38]``."""
+        return _collection_action(obs, self._task, self.config)
 
 
 def _tracking_action(obs: torch.Tensor) -> torch.Tensor:
@@ -132,11 +136,28 @@ def _collection_action(
         current=span("current_north", 2),
         edges=span("edge_x_low", 4) * obs.new_tensor(task.area_m).repeat_interleave(2),
     )
-    depth_sp = depth + 10.0 * read("depth_setpoint_offset")
-    heading_sp = heading + torch.atan2(
-        read("sin_heading_setpoint_offset"), read("cos_heading_setpoint_offset")
+    return setpoint_action(obs, task, depth_d, heading_d, rpm)
+
+
+def setpoint_action(
+    obs: torch.Tensor,
+    task: iout.IoUTConfig,
+    depth: torch.Tensor,
+    heading: torch.Tensor,
+    rpm: torch.Tensor,
+) -> torch.Tensor:
+    """The data-collection action ``[*B, N, 3]`` in [-1, 1] that moves each AUV's setpoints
+    toward the wanted ``depth`` (m), ``heading`` (rad) and ``rpm`` (each ``[*B, N]``), read
+    against the setpoints the observation shows (the env card's action table)."""
+    f = _FEATURE
+    h_max = task.seabed_depth_range_m[1]
+    own_depth = obs[..., f["depth"]] * h_max
+    own_heading = torch.atan2(obs[..., f["sin_heading"]], obs[..., f["cos_heading"]])
+    depth_sp = own_depth + 10.0 * obs[..., f["depth_setpoint_offset"]]
+    heading_sp = own_heading + torch.atan2(
+        obs[..., f["sin_heading_setpoint_offset"]], obs[..., f["cos_heading_setpoint_offset"]]
     )
     return torch.stack(
-        ((depth_d - depth_sp) / DEPTH_STEP, wrap_angle(heading_d - heading_sp) / HEADING_STEP,
+        ((depth - depth_sp) / DEPTH_STEP, wrap_angle(heading - heading_sp) / HEADING_STEP,
          rpm / RPM_SCALE - 3.0), -1
     ).clamp(-1.0, 1.0)  # fmt: skip

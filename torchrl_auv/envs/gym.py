@@ -1,11 +1,11 @@
 """Gymnasium ids for the environments.
 
 ``gymnasium.make("torchrl_auv/Tracking-v0")`` and
-``gymnasium.make("torchrl_auv/DataCollection-v1")``. Importing :mod:`torchrl_auv.envs`
+``gymnasium.make("torchrl_auv/DataCollection-v2")``. Importing :mod:`torchrl_auv.envs`
 registers the ids once (guarded against double registration). The gymnasium view is a
 single, unbatched episode on numpy arrays with float32 ``Box(-inf, inf)`` observations and
 ``Box(-1, 1)`` actions: 16 and 3 for tracking; for data collection the flat single-agent
-layout (``flatten_agents=True``), ``37 N`` and ``3 N``, with the reward summed over the AUVs.
+layout (``flatten_agents=True``), ``38 N`` and ``3 N``, with the reward summed over the AUVs.
 ``info`` carries the ``cost`` and, at the end of an episode, the episode metrics. For batched
 or multi-agent training use the TorchRL envs directly. Unknown keyword arguments (and
 ``batch_size``) raise Python's usual ``TypeError: ... got an unexpected keyword argument
@@ -28,7 +28,7 @@ from torchrl_auv.envs.tracking import AUVTrackingEnv
 __all__ = ["DataCollectionGymEnv", "TrackingGymEnv", "register_gymnasium_ids"]
 
 TRACKING_ID = "torchrl_auv/Tracking-v0"
-DATA_COLLECTION_ID = "torchrl_auv/DataCollection-v1"
+DATA_COLLECTION_ID = "torchrl_auv/DataCollection-v2"
 
 
 class _GymView(gymnasium.Env):
@@ -102,10 +102,10 @@ class DataCollectionGymEnv(_GymView):
     """:class:`~torchrl_auv.envs.DataCollectionEnv` (flat layout) behind the gymnasium API.
 
     >>> import gymnasium
-    >>> env = gymnasium.make("torchrl_auv/DataCollection-v1", num_auvs=2)
+    >>> env = gymnasium.make("torchrl_auv/DataCollection-v2", num_auvs=2)
     >>> obs, info = env.reset(seed=0)
     >>> obs.shape, env.action_space.shape
-    ((74,), (6,))
+    ((76,), (6,))
     """
 
     def __init__(self, **kwargs: Any) -> None:

@@ -1,6 +1,6 @@
 """Sensors and state estimation: what the policy sees of the vehicle.
 
-Owns the sensor models of ``shared/spec/data_collection.md`` ("Localisation": USBL fixes from
+Owns the sensor models of ``docs/spec/data_collection.md`` ("Localisation": USBL fixes from
 the ASV with its GNSS error, DVL with bottom lock, depth sensor, compass, altimeter;
 :mod:`~torchrl_auv.estimation.sensors`), a batched linear
 Kalman filter checked against filterpy (:mod:`~torchrl_auv.estimation.kalman`) and the AUV

@@ -1,5 +1,5 @@
 """The surface vessel (ASV) of the localisation model: it follows the fleet and gives every AUV
-a USBL fix, converted to NED from where its own GNSS says it is (``shared/spec/data_collection.md``,
+a USBL fix, converted to NED from where its own GNSS says it is (``docs/spec/data_collection.md``,
 "Localisation").
 
 Examples:

@@ -1,4 +1,4 @@
-r"""Sensor models (``shared/spec/data_collection.md``, "Localisation"), batched and seeded.
+r"""Sensor models (``docs/spec/data_collection.md``, "Localisation"), batched and seeded.
 
 * USBL from the ASV: slant range with noise proportional to the range (the sea state's
   ``usbl_noise_fraction``) and bearing noise (azimuth and elevation, ``usbl_bearing_sigma``),

@@ -1,6 +1,6 @@
 """The sensor network of the data-collection task, as plain batched torch (no TorchRL import).
 
-Owns everything the multi-AUV data-collection task (``shared/spec/data_collection.md``) adds
+Owns everything the multi-AUV data-collection task (``docs/spec/data_collection.md``) adds
 to the vehicles: the configuration (:class:`IoUTConfig`), the random seabed
 (:mod:`~torchrl_auv.iout.terrain`), the sensor nodes and their Poisson data arrivals
 (:mod:`~torchrl_auv.iout.nodes`), the node-to-AUV acoustic link rate

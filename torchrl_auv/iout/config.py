@@ -1,4 +1,4 @@
-r"""Configuration of the data-collection task (``shared/spec/data_collection.md``).
+r"""Configuration of the data-collection task (``docs/spec/data_collection.md``).
 
 Every number of the task spec is a default of :class:`IoUTConfig`; values the spec does not
 give are marked "ours" in the field list.
@@ -64,6 +64,12 @@ class IoUTConfig:
         auv_start_spread_m: AUVs start evenly on a circle of this radius (m, ours) ...
         auv_start_margin_m: ... around a uniform centre this far inside the area's edges (ours).
         episode_decisions: decisions per episode (1000 s at 1 Hz).
+        delivery_age_scale: the age of an AUV's last delivery (decisions) at which the
+            cost's mission term reaches its weight and the observation's ``delivery_age`` 1
+            (ours, task v3; :mod:`~torchrl_auv.iout.reward`). ``None`` (default): the
+            decisions an average node takes to fill its empty buffer,
+            :attr:`buffer_fill_decisions` (645 with the defaults): an AUV that has delivered
+            nothing for that long lets the network's data overflow.
 
     Raises:
         ValueError: naming the field, for a non-positive count, size, rate or range.
@@ -108,6 +114,7 @@ class IoUTConfig:
     auv_start_spread_m: float = 10.0
     auv_start_margin_m: float = 20.0
     episode_decisions: int = 1000
+    delivery_age_scale: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("num_sensors", "num_auvs", "terrain_modes", "episode_decisions"):
@@ -168,6 +175,11 @@ class IoUTConfig:
             raise ValueError("bandwidth_hz must be < 2 * carrier (the band f -+ B/2 must be > 0)")
         if self.rate_model not in RATE_MODELS:
             raise ValueError(f"rate_model must be one of {RATE_MODELS}, got {self.rate_model!r}")
+        if self.delivery_age_scale is not None and not self.delivery_age_scale >= 1:
+            raise ValueError(
+                f"delivery_age_scale must be None or >= 1 (decisions), got "
+                f"{self.delivery_age_scale}"
+            )
         if 2 * self.auv_start_margin_m >= min(self.area_m):
             raise ValueError(
                 f"auv_start_margin_m must be < half the area's side, got {self.auv_start_margin_m}"
@@ -182,3 +194,21 @@ class IoUTConfig:
     def area_diagonal_m(self) -> float:
         """Horizontal diagonal of the area (m), a natural distance scale."""
         return math.hypot(*self.area_m)
+
+    @property
+    def buffer_fill_decisions(self) -> float:
+        """Decisions an average node takes to fill an empty buffer, ``C_max / mean(lambda)``.
+
+        Examples:
+            >>> round(IoUTConfig().buffer_fill_decisions, 1)  # 5000 / 7.75
+            645.2
+        """
+        mean_rate = sum(self.arrival_rates) / len(self.arrival_rates)
+        return self.buffer_capacity / max(mean_rate, 1e-12)
+
+    @property
+    def age_scale(self) -> float:
+        """:attr:`delivery_age_scale`, or :attr:`buffer_fill_decisions` when it is ``None``."""
+        if self.delivery_age_scale is not None:
+            return float(self.delivery_age_scale)
+        return self.buffer_fill_decisions

@@ -25,6 +25,9 @@ idx    name                        value
 17-20  ``edge_*``                  signed distance to the area's edges, x / X, (X - x) / X,
                                    y / Y, (Y - y) / Y (negative outside the area)
 21-22  ``current_*``               the AUV's estimate of the current, north and east (m/s)
+23     ``delivery_age``            decisions since the AUV last delivered data /
+                                   ``config.age_scale``, at most 1 (task v3: the cost's
+                                   mission term reads it, :mod:`~torchrl_auv.iout.reward`)
 =====  ==========================  ==========================================================
 """
 
@@ -64,6 +67,7 @@ OBSERVATION_FEATURES = (
     "edge_y_high",
     "current_north",
     "current_east",
+    "delivery_age",
 )
 
 
@@ -76,7 +80,7 @@ def task_observation(
     current: torch.Tensor | None = None,
     horizon: int | None = None,
 ) -> torch.Tensor:
-    """Task features per AUV (module docstring), ``[*B, N, 23]``.
+    """Task features per AUV (module docstring), ``[*B, N, 24]``.
 
     Args:
         state: task state from :func:`~torchrl_auv.iout.reset_state` / :func:`~.step`.
@@ -98,7 +102,7 @@ def task_observation(
         >>> state, pos = reset_state(cfg, (3,), generator=torch.Generator().manual_seed(0))
         >>> obs = task_observation(state, pos, cfg)
         >>> obs.shape, bool(obs.abs().max() <= 1.0)
-        (torch.Size([3, 2, 23]), True)
+        (torch.Size([3, 2, 24]), True)
     """
     dtype = auv_positions.dtype
     nodes, auvs = state["nodes"], state["auvs"]
@@ -159,6 +163,7 @@ def task_observation(
             per_scene,
             edges.to(dtype),
             current.to(dtype),
+            (auvs["delivery_age"] / config.age_scale).clamp(max=1.0).to(dtype)[..., None],
         ],
         -1,
     )

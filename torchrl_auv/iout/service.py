@@ -15,6 +15,8 @@ key                                    shape           meaning
 ``("auvs", "service_remaining")``      ``[*B, N]``     hover time left (s)
 ``("auvs", "service_rate")``           ``[*B, N]``     link rate of the ongoing service (bit/s)
 ``("auvs", "target_distance")``        ``[*B, N]``     3-D distance to the target (m), 0 if none
+``("auvs", "delivery_age")``           ``[*B, N]``     decisions since the AUV last delivered data
+                                                       (``config.age_scale`` at reset: none yet)
 ``"decision"``                         ``[*B]``        decisions taken (int64)
 =====================================  ==============  ============================================
 
@@ -38,7 +40,9 @@ key                                    shape           meaning
    service thus occupies :math:`\max(1, \lceil T / \Delta t \rceil)` decisions at the rate
    :math:`R(d)`, the last one for its fraction. The decision in which the service starts is
    a moving one.
-4. Targets are re-chosen (:mod:`~torchrl_auv.iout.targets`) for every AUV not in service
+4. Each AUV's delivery age becomes 0 if it delivered data in the decision (time in service
+   above 0), else grows by one decision.
+5. Targets are re-chosen (:mod:`~torchrl_auv.iout.targets`) for every AUV not in service
    (``retarget_every_decision=True``, the group's heuristic), or only for AUVs without one,
    among the nodes filled to at least ``refill_fraction`` of capacity.
 
@@ -182,6 +186,7 @@ def reset_state(
             "service_remaining": zeros,
             "service_rate": zeros.clone(),
             "target_distance": _distance_to_targets(positions, nodes["position"], target),
+            "delivery_age": torch.full(auv_shape, config.age_scale, dtype=dtype, device=device),
         },
         batch_size=auv_shape,
         device=device,
@@ -229,6 +234,8 @@ def step(
         * ``"target_distance"`` ``[*B, N]``: distance to the (possibly new) target (m), 0 if
           in service or without a target;
         * ``"collision"``, ``"violation"`` ``[*B, N]`` bool (:mod:`~torchrl_auv.iout.safety`);
+        * ``"delivery_age"`` ``[*B, N]``: decisions since the AUV last delivered data, after
+          this decision (0 if it delivered in it);
         * ``"overflow"`` ``[*B]``: packets lost to full buffers in this decision.
 
     Examples:
@@ -279,7 +286,10 @@ def step(
     in_service = (hovering & ~completed) | started
     target = torch.where(completed, torch.full_like(target, NO_TARGET), target)
 
-    # 4. targets for the next decision
+    # 4. the age of each AUV's last delivery (decisions)
+    delivery_age = torch.where(service_time > 0, torch.zeros_like(left), auvs["delivery_age"] + 1)
+
+    # 5. targets for the next decision
     new_nodes = TensorDict(
         {"position": node_pos, "rate": nodes["rate"], "buffer": buffer, "services": services},
         batch_size=nodes.batch_size,
@@ -299,6 +309,7 @@ def step(
                     "service_remaining": remaining,
                     "service_rate": service_rate,
                     "target_distance": target_distance,
+                    "delivery_age": delivery_age,
                 },
                 batch_size=auvs.batch_size,
                 device=auvs.device,
@@ -322,6 +333,7 @@ def step(
             ),
             "collision": collision_mask(auv_positions, config),
             "violation": violation_mask(auv_positions, state["terrain"], config),
+            "delivery_age": delivery_age,
             "overflow": overflow.sum(-1),
         },
         batch_size=state.batch_size,

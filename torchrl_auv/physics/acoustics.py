@@ -1,4 +1,4 @@
-r"""Underwater acoustic link between a sensor node and an AUV (``shared/spec/data_collection.md``).
+r"""Underwater acoustic link between a sensor node and an AUV (``docs/spec/data_collection.md``).
 
 With the frequency :math:`f` in kHz, the ambient-noise power spectral densities (dB re
 :math:`\mu\mathrm{Pa}` per Hz) are

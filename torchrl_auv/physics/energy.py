@@ -1,4 +1,4 @@
-r"""Energy models for the task metrics (``shared/spec/data_collection.md``, "Metrics").
+r"""Energy models for the task metrics (``docs/spec/data_collection.md``, "Metrics").
 
 * The data-collection papers' EC model: a moving AUV at speed :math:`V` draws
 

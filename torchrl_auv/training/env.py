@@ -13,7 +13,7 @@ Examples:
     ...     "history": 3}})
     >>> env = env_from_config(cfg)
     >>> env.reset()["agents", "history", "observation"].shape
-    torch.Size([2, 2, 3, 37])
+    torch.Size([2, 2, 3, 38])
 """
 
 from __future__ import annotations

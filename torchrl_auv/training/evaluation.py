@@ -20,7 +20,7 @@ import tqdm
 from tensordict import TensorDictBase
 
 from torchrl_auv import iout
-from torchrl_auv.envs import SIM_KEY, DataCollectionEnv, ScriptedExpert
+from torchrl_auv.envs import SIM_KEY, DataCollectionEnv, IdlePolicy, LazyExpert, ScriptedExpert
 from torchrl_auv.training.evaluation_pool import evaluate_rows
 
 __all__ = [
@@ -30,12 +30,16 @@ __all__ = [
     "evaluate",
     "exit_policy",
     "expert_policy",
+    "idle_policy",
+    "lazy_policy",
     "make_policy",
     "random_policy",
     "reference_policies",
 ]
 
-POLICIES = ("expert", "random", "exit")
+POLICIES = ("expert", "lazy", "idle", "random", "exit")
+#: the per-scene metrics whose standard error over scenes a row carries as ``<name>_se``
+SE_METRICS = ("sdr_mbit", "ssn", "violation_rate", "cost_mean")
 TRACKING_METRICS = ("heading_error_mean", "heading_error_std", "depth_error_mean",
                     "depth_error_std")  # fmt: skip
 
@@ -55,12 +59,14 @@ def exit_policy(env: DataCollectionEnv) -> Callable[[TensorDictBase], TensorDict
 
 
 def make_policy(name: str, env: DataCollectionEnv):
-    """``expert`` (:class:`~torchrl_auv.envs.ScriptedExpert`), ``random`` (uniform actions;
-    ``None`` for ``env.rollout``) or ``exit`` (:func:`exit_policy`)."""
+    """A reference policy by name (:data:`POLICIES`): ``expert``
+    (:class:`~torchrl_auv.envs.ScriptedExpert`), ``lazy`` (:class:`~torchrl_auv.envs.LazyExpert`),
+    ``idle`` (:class:`~torchrl_auv.envs.IdlePolicy`), ``random`` (uniform actions; ``None`` for
+    ``env.rollout``) or ``exit`` (:func:`exit_policy`)."""
     if name not in POLICIES:
         raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
-    return {"expert": lambda: ScriptedExpert(env), "random": lambda: None,
-            "exit": lambda: exit_policy(env)}[name]()  # fmt: skip
+    return {"expert": expert_policy, "lazy": lazy_policy, "idle": idle_policy,
+            "random": random_policy, "exit": exit_policy}[name](env)  # fmt: skip
 
 
 def _first_episode(rollout: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
@@ -82,7 +88,9 @@ def episode_stats(
 ) -> dict[str, float]:
     """Roll ``policy`` out for ``steps`` decisions (one episode per scene, or its first
     ``steps`` decisions) and summarise it (module docstring). Values are means over scenes;
-    ``kf_error_p95`` is the 95th percentile over every AUV-decision. ``callback(env, td)`` is
+    ``kf_error_p95`` is the 95th percentile over every AUV-decision; ``<metric>_se`` the
+    standard error over scenes of :data:`SE_METRICS` and the discounted costs (cost per AUV
+    from reset, the AUVs' mean). ``callback(env, td)`` is
     called after every decision (``EnvBase.rollout``'s), e.g. to advance a progress bar."""
     rollout = env.rollout(steps, policy, break_when_any_done=False, callback=callback)
     rollout = rollout.cpu()  # an env on a GPU (device=cuda): the statistics on the CPU
@@ -102,13 +110,20 @@ def episode_stats(
     term_totals = {k: torch.where(mask[..., None], terms[k].double(), 0.0).sum() for k in
                    iout.COST_TERMS}  # fmt: skip
     total = sum(term_totals.values())
+    per_scene = {  # [B] each: their means are the row's values, their standard errors `_se`
+        "sdr_mbit": metrics["sdr"].double(),
+        "ssn": metrics["ssn"].double(),
+        "violation_rate": metrics["violations"].double() / (n * decisions),
+        "terminated": at_end["terminated"][:, 0].double(),
+        "cost_mean": cost.sum((-2, -1)) / (n * decisions),
+    }
+    for gamma in gammas:
+        discount = gamma ** torch.arange(cost.shape[1], dtype=torch.float64)
+        per_scene[f"discounted_cost_{gamma}"] = (cost * discount[:, None]).sum((1, 2)) / n
     out = {
-        "sdr_mbit": metrics["sdr"].double().mean().item(),
-        "ssn": metrics["ssn"].double().mean().item(),
+        **{k: v.mean().item() for k, v in per_scene.items() if k != "cost_mean"},
         "ec_w": metrics["ec"].double().mean().item(),
-        "violation_rate": (metrics["violations"].double() / (n * decisions)).mean().item(),
         "collisions": metrics["collisions"].double().mean().item(),
-        "terminated": at_end["terminated"][:, 0].double().mean().item(),
         "decisions": decisions.mean().item(),
         "service_end_inside": (
             metrics["services_inside"].sum() / metrics["ssn"].sum().clamp_min(1)
@@ -117,13 +132,22 @@ def episode_stats(
         "kf_error_mean": kf_error.double().mean().item(),
         "kf_error_p95": kf_error.double().quantile(0.95).item(),
         "usbl_error_mean": metrics["usbl_position_error"].double().mean().item(),
-        "cost_mean": (cost.sum((-2, -1)) / (n * decisions)).mean().item(),
+        "cost_mean": per_scene["cost_mean"].mean().item(),
         **{f"share_{k}": (v / total).item() for k, v in term_totals.items()},
     }
+    for key in SE_METRICS:
+        if key in per_scene:
+            out[f"{key}_se"] = _standard_error(per_scene[key])
     for gamma in gammas:
-        discount = gamma ** torch.arange(cost.shape[1], dtype=torch.float64)
-        out[f"discounted_cost_{gamma}"] = (cost * discount[:, None]).sum(1).mean().item()
+        out[f"discounted_cost_{gamma}_se"] = _standard_error(per_scene[f"discounted_cost_{gamma}"])
     return out
+
+
+def _standard_error(values: torch.Tensor) -> float:
+    """Standard error of the mean over scenes (sample std / sqrt(B); 0 for one scene)."""
+    if values.numel() < 2:
+        return 0.0
+    return (values.std() / values.numel() ** 0.5).item()
 
 
 @dataclass(frozen=True)
@@ -191,11 +215,22 @@ def expert_policy(env: DataCollectionEnv) -> ScriptedExpert:
     return ScriptedExpert(getattr(env, "base_env", env))
 
 
+def lazy_policy(env: DataCollectionEnv) -> LazyExpert:
+    """The lazy expert of ``env`` (half the time at rest, :class:`~torchrl_auv.envs.LazyExpert`)."""
+    return LazyExpert(env)
+
+
+def idle_policy(env: DataCollectionEnv) -> IdlePolicy:
+    """The idle policy of ``env`` (safe, serves no node, :class:`~torchrl_auv.envs.IdlePolicy`)."""
+    return IdlePolicy(env)
+
+
 def random_policy(env: DataCollectionEnv) -> None:
     """Uniform random actions (``None``: ``env.rollout``'s own)."""
     return None
 
 
 def reference_policies() -> dict[str, Callable[[DataCollectionEnv], object]]:
-    """The reference rows of every evaluation: the scripted expert and random actions."""
-    return {"expert": expert_policy, "random": random_policy}
+    """The reference rows of every evaluation: the scripted expert, the idle policy (the
+    cost of serving nothing) and random actions."""
+    return {"expert": expert_policy, "idle": idle_policy, "random": random_policy}

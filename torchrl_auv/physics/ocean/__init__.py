@@ -1,7 +1,7 @@
 r"""Ocean disturbances: sea-state presets, a Gauss-Markov current and JONSWAP waves, batched.
 
 The paper names three sea states (ideal, extreme, very extreme) without defining them; the values
-here are the project's choices recorded in ``shared/spec/data_collection.md`` ("Disturbances").
+here are the project's choices recorded in ``docs/spec/data_collection.md`` ("Disturbances").
 Everything is batched over scene dims ``[*B]``, follows the requested dtype and device, and draws
 randomness only from the ``torch.Generator`` passed in (never from the global RNG).
 

@@ -35,7 +35,7 @@ class SeaState:
         gnss_time_constant: Gauss-Markov time constant of the GNSS error (s); ``math.inf``
             freezes it within an episode.
 
-    The localisation errors of the presets (``shared/spec/data_collection.md``, "Localisation"
+    The localisation errors of the presets (``docs/spec/data_collection.md``, "Localisation"
     v2; values ours):
 
     ===============================  =====  =====  =====  ==========================================

@@ -13,7 +13,8 @@ the share of AUV-decisions whose executed action is the largest or the smallest 
 candidates' first actions, per action dimension (``train/selected_extreme_<d>`` of its
 ``train_curve.csv``), in its first and its last ``window`` frames.
 :func:`cost_term_changes` splits each job's change of cost at the end (its row minus its
-proposer alone's) by the cost's terms (:data:`~torchrl_auv.iout.reward.COST_TERMS`).
+proposer alone's) by the cost's terms (:data:`COST_TERMS_V2`: the stored grid ran on the task
+v2 cost, whose terms these are).
 
 Examples:
     >>> import pathlib, tempfile
@@ -33,7 +34,6 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from torchrl_auv.iout.reward import COST_TERMS
 from torchrl_auv.report.curves import read_curve
 from torchrl_auv.report.paper.grid import Job
 from torchrl_auv.report.paper.output import mean_std, read_eval, window_means
@@ -41,6 +41,7 @@ from torchrl_auv.report.paper.tables import LABELS
 from torchrl_auv.report.sweeps import mean_std_text
 
 __all__ = [
+    "COST_TERMS_V2",
     "FRAMEWORKS_WITH_PRIOR",
     "cost_term_changes",
     "extreme_shares",
@@ -59,7 +60,10 @@ ROWS = {
     "end_cheaper": "costs less than the proposer alone at the end",
     "end_fewer_ssn": "serves fewer nodes (SSN) than the proposer alone at the end",
 }
-#: each cost term's row on the results page (the terms of :func:`~torchrl_auv.iout.task_cost`)
+#: the terms of the task v2 cost, the one the stored paper grid ran with (``share_<term>`` of its
+#: ``eval.csv``); task v3 replaced it (:mod:`torchrl_auv.iout.reward`)
+COST_TERMS_V2 = ("distance", "regress", "energy", "collision", "violation", "waiting", "overflow")
+#: each task v2 cost term's row on the results page
 TERM_ROWS = {
     "distance": "distance to the target",
     "regress": "moving away from the target",
@@ -184,11 +188,11 @@ def format_extreme_shares(shares: dict, num_candidates: int, window: int = 5000)
 def _term_costs(row: dict) -> dict[str, float] | None:
     """Each cost term per AUV-decision of an ``eval.csv`` row (its share of the cost times the
     cost) and ``total``; ``None`` where the row has no shares."""
-    shares = [row.get(f"share_{term}") for term in COST_TERMS]
+    shares = [row.get(f"share_{term}") for term in COST_TERMS_V2]
     cost = row.get("cost_mean")
     if not all(isinstance(v, float) for v in [*shares, cost]):
         return None
-    return {**{t: cost * share for t, share in zip(COST_TERMS, shares, strict=True)},
+    return {**{t: cost * share for t, share in zip(COST_TERMS_V2, shares, strict=True)},
             "total": cost}  # fmt: skip
 
 
