@@ -55,7 +55,7 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
     assert (stage / "loss.png").stat().st_size > 5_000  # Fig. 4 material
     assert f"first stage: {stage} (built" in (run_dir / "summary.md").read_text()
     policies = [row["policy"] for row in _eval_rows(run_dir)]
-    assert policies[0] == recipe and policies[-2:] == ["expert", "random"]
+    assert policies[0] == recipe and policies[-3:] == ["expert", "idle", "random"]
     if recipe != "diffusion":  # the proposer alone, the actor alone, every rank (K=5; the
         # paper presets leave the actor's action out of the selection)
         assert {"proposer alone", "RL", "OA", "CA1", "CA4"} <= set(policies)

@@ -48,12 +48,12 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
     with open(run_dir / "eval.csv") as handle:
         rows = list(csv.DictReader(handle))
     assert [(r["sea_state"], r["policy"]) for r in rows] == [
-        ("ideal", "sac"), ("ideal", "expert"), ("ideal", "random")
+        ("ideal", "sac"), ("ideal", "expert"), ("ideal", "idle"), ("ideal", "random")
     ]  # fmt: skip
     for row in rows:  # 20 decisions per scene: the metrics are finite numbers
         assert float(row["decisions"]) == 20.0 and float(row["cost_mean"]) >= 0.0
     summary = (run_dir / "summary.md").read_text()
-    assert "- frames: 200" in summary and "bytes per stored frame: 644" in summary
+    assert "- frames: 200" in summary and "bytes per stored frame: 660" in summary
     assert _checkpoint_steps(run_dir) == [200]
     # the offline run's record file (protobuf records, strings stored as UTF-8) holds the
     # config and the train/eval metrics by name

@@ -34,7 +34,7 @@ def _check(run_dir: Path) -> None:
     assert "- frames: 200" in (run_dir / "summary.md").read_text()
     with open(run_dir / "eval.csv") as handle:
         rows = list(csv.DictReader(handle))
-    assert [r["policy"] for r in rows] == ["sac", "expert", "random"]
+    assert [r["policy"] for r in rows] == ["sac", "expert", "idle", "random"]
     assert all(float(r["decisions"]) == 20.0 for r in rows)
 
 

@@ -187,8 +187,8 @@ def task_cost(
         ...     "collision": torch.tensor([False, False]),
         ...     "violation": torch.tensor([False, True])})
         >>> cost, terms = task_cost(events, torch.tensor([0.0, 2.0]), cfg)
-        >>> [round(v, 3) for v in terms["undelivered"].tolist()]  # 29.1 of 30.4 kbit/s
-        [0.043, 0.0]
+        >>> [round(v, 3) for v in terms["undelivered"].tolist()]  # 29.1 of 30.9 kbit/s
+        [0.058, 0.0]
         >>> terms["delivery_age"].tolist(), terms["violation"].tolist()
         ([0.0, 1.0], [0.0, 1.0])
     """
