@@ -68,6 +68,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "eval.ranks": (True, False),
         "eval.curve_background": (True, False),
         "optim.loss_function": ("l2", "smooth_l1"),
+        "optim.compile": (True, False),
         "lyapunov.cost": ("task", "stability"),
     }
 

@@ -125,14 +125,22 @@ def lac_from_config(
     lambda_max, the critics' loss function), ``cfg.advisor``'s initial form and stability
     weight and ``cfg.lyapunov.cost``; a ``SoftUpdate`` of ``cfg.optim.tau`` (made before the
     loss's first forward, as TorchRL requires); :func:`lac_optimisers`; logging
-    :data:`LAC_LOGGED_KEYS`. ``critic`` is the Lyapunov critic the selector ranks with too."""
+    :data:`LAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent: ``False``) compiles the update
+    (:class:`~torchrl_auv.training.Learner`). ``critic`` is the Lyapunov critic the selector
+    ranks with too."""
     optim, advisor = cfg["optim"], cfg["advisor"]
     loss = make_lac_loss(actor, critic, env, gamma=optim["gamma"], form=advisor["form"],
                          stability_weight=advisor["stability_weight"],
                          lambda_max=optim["lambda_max"], loss_function=optim["loss_function"],
                          cost=cfg["lyapunov"]["cost"], hidden=cfg["network"]["hidden"])  # fmt: skip
     target_updater = SoftUpdate(loss, tau=optim["tau"])
-    return Learner(loss, target_updater, lac_optimisers(loss, optim), LAC_LOGGED_KEYS)
+    return Learner(
+        loss,
+        target_updater,
+        lac_optimisers(loss, optim),
+        LAC_LOGGED_KEYS,
+        compile=bool(optim.get("compile", False)),
+    )
 
 
 def advisor_from_config(cfg: Mapping):

@@ -33,18 +33,32 @@ from tensordict import TensorDictBase
 __all__ = ["Learner", "gradient_step"]
 
 
-def gradient_step(loss, optimisers: Mapping[str, torch.optim.Optimizer], updater, batch):
+def gradient_step(loss, optimisers: Mapping[str, torch.optim.Optimizer], updater, batch,
+                  steps: Sequence | None = None):  # fmt: skip
     """One update: the sum of ``loss(batch)``'s ``loss_*`` terms backpropagated, every
-    optimiser stepped, the target networks updated. Returns the loss output (detached)."""
+    optimiser stepped (through ``steps``, the optimisers' ``step`` callables, when given: their
+    compiled versions), the target networks updated. Returns the loss output (detached)."""
     out = loss(batch)
     total = sum(value for key, value in out.items() if key.startswith("loss_"))
     for opt in optimisers.values():
         opt.zero_grad()
     total.backward()
-    for opt in optimisers.values():
-        opt.step()
+    for step in steps if steps is not None else [opt.step for opt in optimisers.values()]:
+        step()
     updater.step()
     return out.detach()
+
+
+def _compiled(function):
+    """``torch.compile(function)`` run with TorchRL losses' functional parameters traceable
+    (tensordict's ``to_module`` builds ``nn.Parameter``s, a graph break by default)."""
+    compiled = torch.compile(function)
+
+    def run(*args):
+        with torch._dynamo.config.patch(graph_break_on_nn_param_ctor=False):
+            return compiled(*args)
+
+    return run
 
 
 @dataclass
@@ -56,16 +70,29 @@ class Learner:
         target_updater: its ``SoftUpdate`` (created before any forward of the loss).
         optimisers: name -> optimiser; checkpointed under these names.
         logged_keys: the loss outputs logged as ``train/<key>`` when present.
+        compile: run the loss's forward (with its backward) and the optimisers' steps through
+            ``torch.compile`` (compiled on the first step, and again when a Python value the
+            loss reads changes, e.g. the Lyapunov form an advisor picks). The same update up to
+            float rounding, except the actor's sampling noise: compiled random draws are
+            inductor's, not eager torch's (reproducible from the same seed all the same).
     """
 
     loss: torch.nn.Module
     target_updater: object
     optimisers: dict[str, torch.optim.Optimizer]
     logged_keys: Sequence[str] = field(default_factory=tuple)
+    compile: bool = False
+    _compiled: tuple | None = field(default=None, init=False, repr=False)
 
     def step(self, batch: TensorDictBase) -> TensorDictBase:
         """One gradient step on ``batch`` (:func:`gradient_step`); the loss output, detached."""
-        return gradient_step(self.loss, self.optimisers, self.target_updater, batch)
+        if not self.compile:
+            return gradient_step(self.loss, self.optimisers, self.target_updater, batch)
+        if self._compiled is None:
+            steps = [_compiled(opt.step) for opt in self.optimisers.values()]
+            self._compiled = (_compiled(self.loss), steps)
+        loss, steps = self._compiled
+        return gradient_step(loss, self.optimisers, self.target_updater, batch, steps)
 
     def metrics(self, out: TensorDictBase) -> dict[str, float]:
         """``train/<key>`` of each logged key ``out`` holds."""

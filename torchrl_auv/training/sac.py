@@ -69,11 +69,18 @@ def sac_optimisers(loss, optim: Mapping) -> dict[str, torch.optim.Optimizer]:
 def sac_from_config(cfg: Mapping, env: DataCollectionEnv, actor: ProbabilisticActor) -> Learner:
     """The SAC learner of a recipe config: a Q ensemble of ``cfg.network.hidden``,
     :func:`make_sac_loss` with ``cfg.optim``'s gamma, initial temperature, tau and Q loss,
-    :func:`sac_optimisers`, logging :data:`SAC_LOGGED_KEYS`."""
+    :func:`sac_optimisers`, logging :data:`SAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent:
+    ``False``) compiles the update (:class:`~torchrl_auv.training.Learner`)."""
     optim = cfg["optim"]
     critic = make_q_critic(env, cfg["network"]["hidden"]).to(cfg["device"])
     loss, target_updater = make_sac_loss(
         actor, critic, env, gamma=optim["gamma"], alpha_init=optim["alpha_init"],
         tau=optim["tau"], loss_function=optim["loss_function"],
     )  # fmt: skip
-    return Learner(loss, target_updater, sac_optimisers(loss, optim), SAC_LOGGED_KEYS)
+    return Learner(
+        loss,
+        target_updater,
+        sac_optimisers(loss, optim),
+        SAC_LOGGED_KEYS,
+        compile=bool(optim.get("compile", False)),
+    )
