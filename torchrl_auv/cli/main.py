@@ -5,7 +5,7 @@ wheel as ``torchrl_auv/recipes/``). Each command runs one of them in place of th
 the arguments that follow it, exactly as ``python recipes/<script> ARGS`` would:
 
 * ``torchrl-auv train ARGS``: ``recipes/train.py ARGS``, one training run (Hydra overrides:
-  ``framework=``, ``preset=paper|quick``, any config key);
+  ``framework=``, ``preset=paper|quick|fast``, any config key);
 * ``torchrl-auv sweep NAME ARGS``: ``recipes/train.py -m +sweeps=NAME ARGS``, a sweep of
   ``recipes/sweeps/``;
 * ``torchrl-auv aggregate ARGS``: ``recipes/aggregate.py ARGS``, a sweep's table;
@@ -36,7 +36,10 @@ __all__ = ["COMMANDS", "command_line", "main", "recipes_dir"]
 
 #: command -> (script under the recipes folder, what it is for)
 COMMANDS = {
-    "train": ("train.py", "one training run: framework=..., preset=paper|quick, any config key"),
+    "train": (
+        "train.py",
+        "one training run: framework=..., preset=paper|quick|fast, any config key",
+    ),
     "sweep": ("train.py", "a sweep of recipes/sweeps/: torchrl-auv sweep NAME [overrides]"),
     "aggregate": ("aggregate.py", "one table from a sweep's runs: torchrl-auv aggregate DIR"),
     "paper": ("paper/run_all.py", "the paper's experiments: budget=quick|paper, experiments=[..]"),
