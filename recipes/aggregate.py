@@ -6,6 +6,14 @@
 Rows: the sweep's axes (the overrides that differ between jobs, the seed excepted), the
 evaluation sea state and the policy (by default each job's own framework); columns: the number
 of runs and each metric as mean ± std (``torchrl_auv.report.sweeps``).
+
+``--intervals``: each metric as its mean and 95 % stratified-bootstrap interval over runs
+(rliable). ``--against KEY=VALUE``: then, for every group whose axis KEY has another value,
+each metric's mean against the reference group's interval (inside or not) and the
+probability that one of its runs improves on one of the reference's, e.g. two presets run
+over the same seeds:
+
+    .venv/bin/python recipes/aggregate.py runs/presets --intervals --against preset=paper
 """
 
 from __future__ import annotations
@@ -13,7 +21,14 @@ from __future__ import annotations
 import argparse
 import csv
 
-from torchrl_auv.report.sweeps import DEFAULT_METRICS, aggregate, load_runs, markdown_table
+from torchrl_auv.report.sweeps import (
+    DEFAULT_METRICS,
+    aggregate,
+    compare,
+    comparison_table,
+    load_runs,
+    markdown_table,
+)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -28,10 +43,40 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--metrics", nargs="+", default=list(DEFAULT_METRICS))
     parser.add_argument("--csv", default=None, help="also write the table to this CSV file")
+    parser.add_argument(
+        "--intervals",
+        action="store_true",
+        help="each metric's mean with its 95 %% bootstrap interval over runs",
+    )
+    parser.add_argument(
+        "--against",
+        default=None,
+        metavar="KEY=VALUE",
+        help="compare every group with the one whose axis KEY is VALUE",
+    )
     args = parser.parse_args(argv)
-    table = aggregate(load_runs(args.root), over=args.over, metrics=args.metrics,
-                      policies=args.policies)  # fmt: skip
+    axis, sep, reference = (args.against or "").partition("=")
+    if args.against is not None and not (sep and axis and reference):
+        parser.error(f"--against must be KEY=VALUE (e.g. preset=paper), got {args.against!r}")
+    rows = load_runs(args.root)
+    table = aggregate(
+        rows, over=args.over, metrics=args.metrics, policies=args.policies, intervals=args.intervals
+    )
     print(markdown_table(table, metrics=args.metrics))
+    if args.against is not None:
+        try:
+            found = compare(
+                rows,
+                axis=axis,
+                reference=reference,
+                over=args.over,
+                metrics=args.metrics,
+                policies=args.policies,
+            )
+        except ValueError as error:
+            parser.error(f"--against: {error}")
+        print(f"\nagainst {axis}={reference} (95 % intervals over runs):\n")
+        print(comparison_table(found))
     if args.csv and table:
         with open(args.csv, "w", newline="") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(table[0]))

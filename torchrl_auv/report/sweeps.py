@@ -37,9 +37,14 @@ from pathlib import Path
 
 import yaml
 
+from torchrl_auv.report.intervals import interval, probability_of_improvement
+
 __all__ = [
     "DEFAULT_METRICS",
+    "LOWER_IS_BETTER",
     "aggregate",
+    "compare",
+    "comparison_table",
     "load_runs",
     "markdown_table",
     "mean_std_text",
@@ -49,6 +54,20 @@ __all__ = [
 #: The metrics the table shows by default (eval.csv has more: pass ``metrics=``).
 DEFAULT_METRICS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "cost_mean",
                    "heading_error_mean", "depth_error_mean")  # fmt: skip
+
+
+#: Metrics where a lower value is better (:func:`compare`'s probability of improvement).
+LOWER_IS_BETTER = (
+    "cost_mean",
+    "discounted_cost_0.97",
+    "discounted_cost_0.99",
+    "ec_w",
+    "collisions",
+    "violation_rate",
+    "terminated",
+    "heading_error_mean",
+    "depth_error_mean",
+)
 
 
 #: Overrides that say where a job writes, not what it ran: never an axis of a table.
@@ -102,16 +121,8 @@ def parse_number(text: str):
         return text
 
 
-def aggregate(
-    rows: Sequence[dict],
-    *,
-    over: str = "seed",
-    metrics: Sequence[str] = DEFAULT_METRICS,
-    policies: Sequence[str] | None = None,
-) -> list[dict]:
-    """Rows grouped by the axes (but ``over``), ``sea_state`` and ``policy``: ``runs`` and,
-    per metric, ``<metric>`` (mean) and ``<metric>_std``. ``policies=None`` keeps each job's
-    own framework (all rows when the jobs set none)."""
+def _groups(rows: Sequence[dict], over: str, policies: Sequence[str] | None):
+    """``(axes, {(*axis values, sea_state, policy): rows})``: :func:`aggregate`'s grouping."""
     axes = [key for key in rows[0] if key not in (over, "run", "sea_state", "policy")
             and not isinstance(rows[0][key], float)] if rows else []  # fmt: skip
     groups: dict[tuple, list[dict]] = {}
@@ -123,16 +134,135 @@ def aggregate(
             continue
         key = (*(row.get(axis, "") for axis in axes), row["sea_state"], row["policy"])
         groups.setdefault(key, []).append(row)
+    return axes, groups
+
+
+def _values(members: Sequence[dict], metric: str) -> list[float]:
+    return [m[metric] for m in members if isinstance(m.get(metric), float)]
+
+
+def aggregate(
+    rows: Sequence[dict],
+    *,
+    over: str = "seed",
+    metrics: Sequence[str] = DEFAULT_METRICS,
+    policies: Sequence[str] | None = None,
+    intervals: bool = False,
+    reps: int = 2000,
+) -> list[dict]:
+    """Rows grouped by the axes (but ``over``), ``sea_state`` and ``policy``: ``runs`` and,
+    per metric, ``<metric>`` (mean) and ``<metric>_std``. ``policies=None`` keeps each job's
+    own framework (all rows when the jobs set none). ``intervals``: also the mean's 95 %
+    stratified-bootstrap interval over runs, ``<metric>_low`` and ``<metric>_high``
+    (:func:`torchrl_auv.report.intervals.interval`, ``reps`` resamples; NaN for one run)."""
+    axes, groups = _groups(rows, over, policies)
     table = []
     for key, members in groups.items():
         out = dict(zip((*axes, "sea_state", "policy"), key, strict=True))
         out["runs"] = len(members)
         for metric in metrics:
-            numbers = [m[metric] for m in members if isinstance(m.get(metric), float)]
+            numbers = _values(members, metric)
             out[metric] = statistics.fmean(numbers) if numbers else math.nan
             out[f"{metric}_std"] = statistics.stdev(numbers) if len(numbers) > 1 else math.nan
+            if intervals:
+                found = interval(numbers, reps=reps) if len(numbers) > 1 else None
+                out[f"{metric}_low"] = found.low if found else math.nan
+                out[f"{metric}_high"] = found.high if found else math.nan
         table.append(out)
     return table
+
+
+def compare(
+    rows: Sequence[dict],
+    *,
+    axis: str,
+    reference: str,
+    over: str = "seed",
+    metrics: Sequence[str] = DEFAULT_METRICS,
+    policies: Sequence[str] | None = None,
+    reps: int = 2000,
+) -> list[dict]:
+    """Each group whose ``axis`` is not ``reference`` against the group that has it (the same
+    other axes, sea state and policy), metric by metric: its mean, the reference's mean and
+    95 % interval over runs, whether the mean lies inside, and the probability that one of
+    its runs improves on one of the reference's (lower is better for
+    :data:`LOWER_IS_BETTER`), with its interval. Raises ``ValueError`` naming ``axis`` when
+    the rows have no such axis or no group has ``reference``."""
+    axes, groups = _groups(rows, over, policies)
+    if axis not in axes:
+        raise ValueError(f"axis must be one of the runs' axes {axes}, got {axis!r}")
+    where = axes.index(axis)
+    found = []
+    for key, members in groups.items():
+        if key[where] == reference:
+            continue
+        base_key = (*key[:where], reference, *key[where + 1 :])
+        if base_key not in groups:
+            continue
+        for metric in metrics:
+            x, y = _values(members, metric), _values(groups[base_key], metric)
+            if len(x) < 1 or len(y) < 2:
+                continue
+            base = interval(y, reps=reps)
+            sign = -1.0 if metric in LOWER_IS_BETTER else 1.0
+            better = probability_of_improvement(
+                [sign * v for v in x], [sign * v for v in y], reps=reps
+            )
+            mean = statistics.fmean(x)
+            found.append(
+                {
+                    **dict(zip((*axes, "sea_state", "policy"), key, strict=True)),
+                    "metric": metric,
+                    "runs": len(x),
+                    "mean": mean,
+                    "reference_runs": len(y),
+                    "reference": base,
+                    "inside": mean in base,
+                    "improvement": better,
+                }
+            )
+    if not any(key[where] == reference for key in groups):
+        raise ValueError(
+            f"no group has {axis}={reference!r}: the reference must be one of "
+            f"{sorted({key[where] for key in groups})}"
+        )
+    return found
+
+
+def comparison_table(found: Sequence[dict]) -> str:
+    """:func:`compare`'s result as Markdown."""
+    if not found:
+        return "(no pairs)"
+    labels = [
+        k
+        for k in found[0]
+        if k
+        not in ("metric", "runs", "mean", "reference_runs", "reference", "inside", "improvement")
+    ]
+    head = [
+        *labels,
+        "metric",
+        "runs",
+        "mean",
+        "reference runs",
+        "reference mean [95 % CI]",
+        "inside",
+        "P(improvement) [95 % CI]",
+    ]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in found:
+        cells = [str(row[label]) for label in labels]
+        cells += [
+            row["metric"],
+            str(row["runs"]),
+            f"{row['mean']:.3g}",
+            str(row["reference_runs"]),
+            str(row["reference"]),
+            "yes" if row["inside"] else "no",
+            str(row["improvement"]),
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def markdown_table(table: Sequence[dict], *, metrics: Sequence[str] = DEFAULT_METRICS) -> str:
@@ -140,14 +270,25 @@ def markdown_table(table: Sequence[dict], *, metrics: Sequence[str] = DEFAULT_ME
     run)`` where a single run measured no spread)."""
     if not table:
         return "(no rows)"
-    labels = [key for key in table[0] if key not in metrics and not key.endswith("_std")]
+    labels = [
+        key
+        for key in table[0]
+        if key not in metrics and not key.endswith(("_std", "_low", "_high"))
+    ]
     lines = ["| " + " | ".join([*labels, *metrics]) + " |",
              "|" + "---|" * (len(labels) + len(metrics))]  # fmt: skip
     for row in table:
         cells = [str(row[label]) for label in labels]
-        cells += [mean_std_text(row[m], row[f"{m}_std"]) for m in metrics]
+        cells += [_cell(row, m) for m in metrics]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _cell(row: dict, metric: str) -> str:
+    low, high = row.get(f"{metric}_low", math.nan), row.get(f"{metric}_high", math.nan)
+    if math.isfinite(low) and math.isfinite(high):
+        return f"{row[metric]:.3g} [{low:.3g}, {high:.3g}]"
+    return mean_std_text(row[metric], row[f"{metric}_std"])
 
 
 def mean_std_text(mean: float, std: float, single: str = "one run") -> str:
