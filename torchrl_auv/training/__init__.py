@@ -107,6 +107,7 @@ from torchrl_auv.training.replay import (
     select_for_replay,
 )
 from torchrl_auv.training.run import Progress, Run, finish_run, prepare_resume, start_run
+from torchrl_auv.training.run_lock import RunFolderInUse
 from torchrl_auv.training.sac import (
     SAC_LOGGED_KEYS,
     make_sac_loss,
@@ -156,6 +157,7 @@ __all__ = [
     "ProgressState",
     "RankedCandidate",
     "Run",
+    "RunFolderInUse",
     "RunTracker",
     "SameRowAs",
     "SpecState",

@@ -43,6 +43,7 @@ from torchrl_auv.training.env import held_out_env
 from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.loggers import close_logger, log_metrics, logger_from_config
 from torchrl_auv.training.run_folder import hydra_folder, remove_if_unused, write_hydra_files
+from torchrl_auv.training.run_lock import LOCK_FILE, acquire_run_folder, release_run_folder
 from torchrl_auv.training.seeding import configure_threads, seed_everything
 from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summary
 from torchrl_auv.training.tracking import RunTracker
@@ -64,13 +65,21 @@ class Progress:
 def start_run(cfg: DictConfig) -> Path:
     """Check the config's values (before any work), pin threads, seed every RNG, create and
     return the run folder (``resume`` when set, else ``run_dir``) with Hydra's ``.hydra/``
-    files. A ``run_dir`` that already holds checkpoints is refused without ``resume`` (its
-    checkpoints would be overwritten), and a ``resume`` folder without checkpoints is refused
-    too; a refused start writes nothing and removes the empty folder Hydra made for it
-    (:mod:`~torchrl_auv.training.run_folder`)."""
+    files. The folder's lock is taken first (:mod:`~torchrl_auv.training.run_lock`): a folder
+    another running process holds is refused naming it (:class:`RunFolderInUse`), and the lock
+    is held until :func:`finish_run`. A ``run_dir`` that already holds checkpoints is refused
+    without ``resume`` (its checkpoints would be overwritten), and a ``resume`` folder without
+    checkpoints is refused too; a refused start writes nothing and removes the empty folder
+    Hydra made for it (:mod:`~torchrl_auv.training.run_folder`)."""
     try:
         check_config(resolve_config(cfg))
         run_dir = Path(cfg.resume or cfg.run_dir)
+    except Exception:
+        remove_if_unused(hydra_folder())
+        raise
+    had_lock = (run_dir / LOCK_FILE).exists()
+    acquire_run_folder(run_dir)  # refused, naming the holder, while another run holds it
+    try:
         checkpoints = run_dir / "checkpoints"
         if not cfg.resume and checkpoints.is_dir() and any(checkpoints.iterdir()):
             published = any(p.name.startswith("checkpoint-") for p in checkpoints.iterdir())
@@ -85,6 +94,7 @@ def start_run(cfg: DictConfig) -> Path:
         if cfg.resume and not checkpoints.is_dir():
             raise ValueError(f"resume={run_dir} holds no checkpoints/ to continue from")
     except Exception:
+        release_run_folder(run_dir, remove=not had_lock)
         remove_if_unused(hydra_folder())
         raise
     configure_threads(int(cfg.threads))
@@ -142,8 +152,8 @@ def finish_run(
     ``cfg.eval`` scenes (the run's envs, :func:`~torchrl_auv.training.held_out_env`; rows side
     by side in ``cfg.eval.workers`` processes, 1 when absent), write ``summary.md`` (with
     the evaluation's wall time), log ``eval/<sea>/<policy>/<metric>``, close the logger and
-    write ``eval.csv`` last (its presence marks a finished run). Returns the summary's
-    path."""
+    write ``eval.csv`` last (its presence marks a finished run) and let go of the folder's
+    lock. Returns the summary's path."""
     eval_env = held_out_env(cfg, cfg.eval.num_envs, cfg.eval.steps)
     began = time.perf_counter()
     workers = OmegaConf.select(cfg, "eval.workers", default=None) or 1
@@ -156,6 +166,7 @@ def finish_run(
                              for key in SUMMARY_COLUMNS}, step)  # fmt: skip
     close_logger(logger)
     write_eval(rows, run_dir)  # last: eval.csv marks a finished run
+    release_run_folder(run_dir)
     log.info("summary: %s", summary)
     return summary
 
