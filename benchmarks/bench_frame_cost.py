@@ -44,8 +44,13 @@ def _arguments(parser):
     parser.add_argument(
         "--framework", default="diffusion_lac", choices=("diffusion_lac", "diffusion_rl")
     )
-    parser.add_argument("--presets", nargs="+", default=list(PRESETS), choices=PRESETS,
-                        help="the presets of this checkout to time")  # fmt: skip
+    parser.add_argument(
+        "--presets",
+        nargs="+",
+        default=list(PRESETS),
+        choices=PRESETS,
+        help="the presets of this checkout to time",
+    )
     parser.add_argument("--before", help="another checkout's root: its paper preset, timed first")
     parser.add_argument("--recipes", default=str(REPO / "recipes"), help=argparse.SUPPRESS)
     parser.add_argument("--json-only", action="store_true", help=argparse.SUPPRESS)
@@ -74,8 +79,9 @@ def _arguments(parser):
     )
 
 
-def _build(framework: str, preset: str, sampler: str | None, steps: int | None, folder: Path,
-           recipes: Path):  # fmt: skip
+def _build(
+    framework: str, preset: str, sampler: str | None, steps: int | None, folder: Path, recipes: Path
+):
     import torch
     from hydra import compose, initialize_config_dir
 
@@ -154,15 +160,28 @@ def measure_preset(args, preset: str, recipes: Path) -> dict[str, float]:
         "updates": t_update * ratio,
     }
     per_frame = parts["env"] + parts["policy"] + parts["updates"]
-    return {**{k: v * 1e3 for k, v in parts.items()}, "frames_per_s": 1.0 / per_frame,
-            "scenes": scenes, "steps": proposer.num_inference_steps,
-            "sampler": proposer.sampler, "first_s": first}  # fmt: skip
+    return {
+        **{k: v * 1e3 for k, v in parts.items()},
+        "frames_per_s": 1.0 / per_frame,
+        "scenes": scenes,
+        "steps": proposer.num_inference_steps,
+        "sampler": proposer.sampler,
+        "first_s": first,
+    }
 
 
 def _run_before(args, path: str) -> dict[str, float]:
-    command = [sys.executable, str(Path(__file__).resolve()), "--json-only", "--presets",
-               "paper", "--recipes", str(Path(path) / "recipes"), "--framework",
-               args.framework] + (["--quick"] if args.quick else [])  # fmt: skip
+    command = [
+        sys.executable,
+        str(Path(__file__).resolve()),
+        "--json-only",
+        "--presets",
+        "paper",
+        "--recipes",
+        str(Path(path) / "recipes"),
+        "--framework",
+        args.framework,
+    ] + (["--quick"] if args.quick else [])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([path, str(Path(__file__).parent)])}
     result = subprocess.run(command, env=env, capture_output=True, text=True)
     if result.returncode:
@@ -182,25 +201,52 @@ def main(argv=None) -> None:
         columns["paper, before"] = _run_before(args, args.before)
     for preset in args.presets:
         columns[preset] = measure_preset(args, preset, Path(args.recipes))
-    rows = [[name, f"{c['scenes']:.0f}", f"{c['sampler']} {c['steps']:.0f}", c["env"], c["policy"],
-             c["proposer"], c["updates"], c["frames_per_s"], c["first_s"]]
-            for name, c in columns.items()]  # fmt: skip
+    rows = [
+        [
+            name,
+            f"{c['scenes']:.0f}",
+            f"{c['sampler']} {c['steps']:.0f}",
+            c["env"],
+            c["policy"],
+            c["proposer"],
+            c["updates"],
+            c["frames_per_s"],
+            c["first_s"],
+        ]
+        for name, c in columns.items()
+    ]
     print_table(
         f"{args.framework}: ms per frame (1 thread; first = the first decision and update, "
         "compilation included, s)",
-        ["preset", "scenes", "sampler", "env", "policy", "of which proposer", "updates",
-         "frames/s", "first (s)"],
+        [
+            "preset",
+            "scenes",
+            "sampler",
+            "env",
+            "policy",
+            "of which proposer",
+            "updates",
+            "frames/s",
+            "first (s)",
+        ],
         rows,
-    )  # fmt: skip
+    )
     base_name = "paper, before" if args.before else "paper"
     base = columns.get(base_name)
-    summary = {f"{name.replace(', ', '_')}_frames_per_s": c["frames_per_s"]
-               for name, c in columns.items()}  # fmt: skip
+    summary = {
+        f"{name.replace(', ', '_')}_frames_per_s": c["frames_per_s"] for name, c in columns.items()
+    }
     if base is not None:
-        ratios = [[name, c["frames_per_s"] / base["frames_per_s"]]
-                  for name, c in columns.items() if name != base_name]  # fmt: skip
-        print_table(f"frames/s against {base_name} (issue [20/26]'s target for fast: >= 5)",
-                    ["preset", "ratio"], ratios)  # fmt: skip
+        ratios = [
+            [name, c["frames_per_s"] / base["frames_per_s"]]
+            for name, c in columns.items()
+            if name != base_name
+        ]
+        print_table(
+            f"frames/s against {base_name} (issue [20/26]'s target for fast: >= 5)",
+            ["preset", "ratio"],
+            ratios,
+        )
         summary.update({f"{name}_vs_{base_name.replace(', ', '_')}": r for name, r in ratios})
     jobs = grid([e for e in EXPERIMENTS if e != "advisor_llm"], seeds=(0, 1, 2))
     trained = [job for job in jobs if job.framework != "diffusion"]

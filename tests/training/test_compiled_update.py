@@ -22,9 +22,14 @@ def _lac_learner(env, compile_update: bool) -> training.Learner:
         "dual_lr": 1e-3,
         "compile": compile_update,
     }
-    cfg = OmegaConf.create({"optim": optim, "lyapunov": {"cost": "stability"},
-                            "advisor": {"form": "softplus", "stability_weight": 0.1},
-                            "network": {"hidden": [16]}})  # fmt: skip
+    cfg = OmegaConf.create(
+        {
+            "optim": optim,
+            "lyapunov": {"cost": "stability"},
+            "advisor": {"form": "softplus", "stability_weight": 0.1},
+            "network": {"hidden": [16]},
+        }
+    )
     return training.lac_from_config(cfg, env, actor, critic)
 
 
@@ -34,8 +39,15 @@ def test_the_compile_switch_reaches_the_learners():
     env = training.make_env("ideal", seed=0, num_envs=1, max_steps=5)
     assert _lac_learner(env, False).compile is False
     assert _lac_learner(env, True).compile is True
-    sac_optim = {"gamma": 0.99, "alpha_init": 1.0, "tau": 0.005, "loss_function": "smooth_l1",
-                 "actor_lr": 1e-3, "critic_lr": 1e-3, "alpha_lr": 1e-3}  # fmt: skip
+    sac_optim = {
+        "gamma": 0.99,
+        "alpha_init": 1.0,
+        "tau": 0.005,
+        "loss_function": "smooth_l1",
+        "actor_lr": 1e-3,
+        "critic_lr": 1e-3,
+        "alpha_lr": 1e-3,
+    }
     cfg = OmegaConf.create({"optim": sac_optim, "network": {"hidden": [8]}, "device": "cpu"})
     actor = training.make_actor(env, (8,))
     assert training.sac_from_config(cfg, env, actor).compile is False
@@ -63,12 +75,14 @@ def test_compiled_lac_updates_equal_the_eager_ones():
             torch.manual_seed(step)
             out_compiled = compiled.step(batch.clone())
             for key in ("loss_actor", "loss_lyapunov", "loss_qvalue", "lambda", "beta"):
-                torch.testing.assert_close(out_compiled[key], out_eager[key], rtol=1e-5,
-                                           atol=1e-6, msg=key)  # fmt: skip
+                torch.testing.assert_close(
+                    out_compiled[key], out_eager[key], rtol=1e-5, atol=1e-6, msg=key
+                )
     params = dict(eager.loss.named_parameters())
     for name, value in compiled.loss.named_parameters():
         torch.testing.assert_close(value, params[name], rtol=1e-5, atol=1e-6, msg=name)
     targets = eager.loss.target_lyapunov_network_params.values(True, True)
-    for a, b in zip(compiled.loss.target_lyapunov_network_params.values(True, True), targets,
-                    strict=True):  # fmt: skip
+    for a, b in zip(
+        compiled.loss.target_lyapunov_network_params.values(True, True), targets, strict=True
+    ):
         torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-6)

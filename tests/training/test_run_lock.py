@@ -18,10 +18,16 @@ from torchrl_auv.training.run_lock import LOCK_FILE, acquire_run_folder, release
 
 
 def _cfg(run_dir, resume=None):
-    return OmegaConf.create({"seed": 0, "threads": 1, "run_dir": str(run_dir), "resume": resume,
-                             "logger": {"backend": None, "exp_name": "x", "project": "p",
-                                        "offline": True},
-                             "checkpoint": {"keep_last": 1}})  # fmt: skip
+    return OmegaConf.create(
+        {
+            "seed": 0,
+            "threads": 1,
+            "run_dir": str(run_dir),
+            "resume": resume,
+            "logger": {"backend": None, "exp_name": "x", "project": "p", "offline": True},
+            "checkpoint": {"keep_last": 1},
+        }
+    )
 
 
 def _start(run_dir, resume, barrier, results):
@@ -41,8 +47,9 @@ def _start(run_dir, resume, barrier, results):
 def _race(run_dir, resume=None):
     context = multiprocessing.get_context("fork")
     barrier, results = context.Barrier(2), context.Queue()
-    children = [context.Process(target=_start, args=(run_dir, resume, barrier, results))
-                for _ in range(2)]  # fmt: skip
+    children = [
+        context.Process(target=_start, args=(run_dir, resume, barrier, results)) for _ in range(2)
+    ]
     for child in children:
         child.start()
     outcomes = [results.get(timeout=60) for _ in children]

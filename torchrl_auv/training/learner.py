@@ -33,8 +33,13 @@ from tensordict import TensorDictBase
 __all__ = ["Learner", "gradient_step"]
 
 
-def gradient_step(loss, optimisers: Mapping[str, torch.optim.Optimizer], updater, batch,
-                  steps: Sequence | None = None):  # fmt: skip
+def gradient_step(
+    loss,
+    optimisers: Mapping[str, torch.optim.Optimizer],
+    updater,
+    batch,
+    steps: Sequence | None = None,
+):
     """One update: the sum of ``loss(batch)``'s ``loss_*`` terms backpropagated, every
     optimiser stepped (through ``steps``, the optimisers' ``step`` callables, when given: their
     compiled versions), the target networks updated. Returns the loss output (detached)."""

@@ -60,8 +60,9 @@ def acquire_run_folder(folder: str | Path) -> None:
     :class:`RunFolderInUse` naming the process that holds it; nothing is written then."""
     folder = Path(folder).resolve()
     if folder in _HELD:
-        log.warning("%s is already held by this process (an earlier run in it): taking it over",
-                    folder)  # fmt: skip
+        log.warning(
+            "%s is already held by this process (an earlier run in it): taking it over", folder
+        )
         release_run_folder(folder)
     folder.mkdir(parents=True, exist_ok=True)
     descriptor = os.open(folder / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
@@ -81,8 +82,12 @@ def acquire_run_folder(folder: str | Path) -> None:
         ) from None
     previous = _holder(descriptor)
     if previous:
-        log.warning("%s was held by a run that is no longer running (%s; killed, or ended "
-                    "without releasing it): taking it over", folder, previous)  # fmt: skip
+        log.warning(
+            "%s was held by a run that is no longer running (%s; killed, or ended "
+            "without releasing it): taking it over",
+            folder,
+            previous,
+        )
     started = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
     line = f"pid {os.getpid()} on {socket.gethostname()} since {started}\n".encode()
     os.ftruncate(descriptor, 0)
