@@ -31,7 +31,7 @@ from torchrl_auv.envs.vehicles import (
     add_tracking_sums,
     tracking_errors,
 )
-from torchrl_auv.estimation import altimeter, asv_fixes, gnss_error_init
+from torchrl_auv.estimation import altimeter, asv_draws, asv_fixes, gnss_error_init
 from torchrl_auv.physics import ocean
 
 __all__ = ["AGENT_OBSERVATION_FEATURES", "SIM_KEY", "VEHICLE_FEATURES", "DataCollectionEnv"]
@@ -202,12 +202,15 @@ class DataCollectionEnv(EnvBase):
     ``cost_weights``; ``termination_cost`` (default ``None``: derived as above); ``device``
     (where its outputs and the carried state live; the simulation runs on the CPU,
     :mod:`~torchrl_auv.envs.device`);
-    ``exit_margin_m``; ``station_keeping``; ``compile_physics`` (run the physics step
-    through ``torch.compile``: one compilation per batch shape, then faster; TorchRL's own
-    ``compile=`` env argument compiles the whole step instead); any other
-    :class:`~torchrl_auv.iout.IoUTConfig` field by keyword (e.g. ``area_m=(300.0, 300.0)``);
-    any other keyword raises Python's usual ``TypeError: ... got an unexpected keyword
-    argument '<name>'`` (which TorchRL's ``GymEnv`` relies on to drop ``frameskip``).
+    ``exit_margin_m``; ``station_keeping``; ``compile_physics`` (run the decision through
+    ``torch.compile``: the 20 physics steps from the first decision on, the code around them
+    (setpoints; network, cost, localisation, sensors, flags, observation) from the second;
+    one compilation per batch shape, then faster. A decision draws all its random numbers
+    first, so what follows the draws is pure tensor code; compiled and eager agree to 1e-5);
+    any other :class:`~torchrl_auv.iout.IoUTConfig` field by keyword (e.g.
+    ``area_m=(300.0, 300.0)``); any other keyword raises Python's usual ``TypeError: ...
+    got an unexpected keyword argument '<name>'`` (which TorchRL's ``GymEnv`` relies on to
+    drop ``frameskip``).
 
     **Version history.** v3 (task v3, gymnasium id ``DataCollection-v2``): the cost pays for
     the mission (the delivery share in service, the age of the AUV's last delivery otherwise)
@@ -292,6 +295,7 @@ class DataCollectionEnv(EnvBase):
             compile=compile_physics,
         )
         self.task_metrics = iout.TaskMetrics(self.config)
+        self._compiled_parts = None
         self.rng = torch.Generator()
         self.set_seed(0 if seed is None else seed)
         self._make_specs()
@@ -374,6 +378,7 @@ class DataCollectionEnv(EnvBase):
             **observation, **{k: v for k, v in state_spec.items()}, shape=shape
         )
         self.state_spec = state_spec.clone()
+        self._state_keys = tuple(self.state_spec.keys(True, True))
 
     def _set_seed(self, seed: int | None) -> None:
         self.rng = torch.Generator().manual_seed(int(seed) if seed is not None else 0)
@@ -398,7 +403,8 @@ class DataCollectionEnv(EnvBase):
             self.sea, shape, generator=g, water_depth=task["terrain", "depth"].mean((-2, -1))
         )
         seabed = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
-        sensors = self._sensors(sea_td, seabed - eta[..., 2], (*shape, n))
+        sensor_draws = self._sensor_draws((*shape, n), eta.dtype, sea_td["current_speed"].dtype)
+        sensors = self._sensors(sea_td, seabed - eta[..., 2], (*shape, n), sensor_draws)
         sim = TensorDict(
             {
                 "truth": td["truth"],
@@ -457,18 +463,37 @@ class DataCollectionEnv(EnvBase):
             metrics[f"{name}_position_error"] = localisation[f"{name}_error_sum"] / count
         return metrics
 
+    def _sensor_draws(
+        self, shape: tuple[int, ...], dtype: torch.dtype, current_dtype: torch.dtype
+    ) -> dict[str, torch.Tensor]:
+        """The standard normals of :meth:`_sensors` for AUVs ``[*B, N]``: altimeter, ADCP."""
+        g = self.rng
+        return {
+            "altimeter": torch.randn(shape, generator=g, dtype=dtype),
+            "adcp": torch.randn((*shape, 2), generator=g, dtype=current_dtype),
+        }
+
     def _sensors(
-        self, sea_td: TensorDictBase, true_altitude: torch.Tensor, shape: tuple[int, ...]
+        self,
+        sea_td: TensorDictBase,
+        true_altitude: torch.Tensor,
+        shape: tuple[int, ...],
+        draws: dict[str, torch.Tensor],
     ) -> TensorDict:
         """What each AUV measures at the end of a decision: its altimeter (m; out of range:
         ``valid`` False and the range as the reading) and its estimate of the current (the
-        scene's current, north and east, with ADCP noise, m/s)."""
-        g = self.rng
-        reading, valid = altimeter(true_altitude.nan_to_num(1e6), _ALTIMETER_SIGMA, g,
-                                   max_range=_ALTIMETER_RANGE)  # fmt: skip
+        scene's current, north and east, with ADCP noise, m/s); ``draws`` from
+        :meth:`_sensor_draws`."""
+        reading, valid = altimeter(
+            true_altitude.nan_to_num(1e6),
+            _ALTIMETER_SIGMA,
+            None,
+            max_range=_ALTIMETER_RANGE,
+            standard_normal=draws["altimeter"],
+        )
         speed, direction = sea_td["current_speed"], sea_td["current_direction"]
         flow = torch.stack((speed * torch.cos(direction), speed * torch.sin(direction)), -1)
-        noise = _ADCP_SIGMA * torch.randn((*shape, 2), generator=g, dtype=flow.dtype)
+        noise = _ADCP_SIGMA * draws["adcp"]
         return TensorDict(
             {"altitude": reading, "altitude_valid": valid, "current": flow[..., None, :] + noise},
             batch_size=shape,
@@ -539,44 +564,113 @@ class DataCollectionEnv(EnvBase):
         return step_on_cpu(self, tensordict, self._simulate_step)  # envs.device
 
     def _simulate_step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        g, cfg = self.rng, self.config
-        state = tensordict.select(*self.state_spec.keys(True, True), strict=True)
+        """One decision: the action checked and every random number of the decision drawn
+        (:meth:`_decision_draws`), then pure tensor code: the setpoints, the 20 physics steps
+        (:meth:`VehicleStack.decide`), and what follows them (:meth:`_after_physics`); with
+        ``compile_physics`` the code before and after the physics runs compiled too."""
+        state = tensordict.select(*self._state_keys, strict=True)
         td = state[SIM_KEY]
-        shape = td.batch_size
         action = self._agent_action(tensordict)
-        task = td["task"]
-        hovering = task["auvs", "in_service"]
-        setpoint = self._setpoints(td, action, hovering)
-        eta = td["truth", "eta"]
-        seabed = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
+        draws = self._decision_draws(td)
+        before, after = self._decision_parts()
+        setpoint, seabed = before(td, action)
         fleet = TensorDict(
-            {k: td[k] for k in ("truth", "kf", "controller")}, batch_size=(*shape, self.num_auvs)
+            {k: td[k] for k in ("truth", "kf", "controller")},
+            batch_size=(*td.batch_size, self.num_auvs),
         )
         vehicles, sea_td, decision = self.vehicles.decide(
-            fleet, setpoint, td["ocean"], seabed.nan_to_num(cfg.seabed_depth_range_m[1]),
-            generator=g,
-        )  # fmt: skip
+            fleet, setpoint, td["ocean"], seabed, generator=None, noise=draws["vehicles"]
+        )
+        return after(state, setpoint, vehicles, sea_td, decision, draws)
+
+    def _decision_draws(self, td: TensorDictBase) -> dict:
+        """Every random number of one decision from ``self.rng``, in the order the decision
+        uses them: the physics steps' (current, onboard sensors), the nodes' Poisson
+        arrivals, the ASV's (GNSS, USBL), the end-of-decision sensors' (altimeter, ADCP).
+        Drawn ahead, so that what follows is pure tensor code (compilable)."""
+        g = self.rng
+        eta = td["truth", "eta"]
+        shape = eta.shape[:-1]
+        vehicles = self.vehicles.draw_noise(
+            shape, td["ocean"].batch_size, g, dtype=td["setpoint"].dtype
+        )
+        nodes = td["task", "nodes"]
+        arrivals = torch.poisson(nodes["rate"].expand_as(nodes["buffer"]), generator=g)
+        asv = asv_draws(td["asv_gnss_error"], eta[..., :3], g)
+        sensors = self._sensor_draws(shape, eta.dtype, td["ocean", "current_speed"].dtype)
+        return {"vehicles": vehicles, "arrivals": arrivals, "asv": asv, "sensors": sensors}
+
+    def _decision_parts(self):
+        """``(before, after)`` the physics: compiled with ``compile_physics`` from the second
+        decision on (the first, eager, fills the constant tensors the code caches on first
+        use; filled while tracing, they would recompile every compiled function)."""
+        if not self.vehicles.compile:
+            return self._before_physics, self._after_physics
+        if self._compiled_parts is None:
+            options = {"dynamic": False, "options": {"cpp_wrapper": True}}
+            self._compiled_parts = (
+                torch.compile(self._before_physics, **options),
+                torch.compile(self._after_physics, **options),
+            )
+            return self._before_physics, self._after_physics
+        return self._compiled_parts
+
+    def _before_physics(
+        self, td: TensorDictBase, action: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The decision's setpoints ``[*B, N, 3]`` and the seabed depth under each AUV (m)."""
+        hovering = td["task", "auvs", "in_service"]
+        setpoint = self._setpoints(td, action, hovering)
+        eta = td["truth", "eta"]
+        seabed = iout.seabed_depth(td["task", "terrain"], eta[..., 0], eta[..., 1], self.config)
+        return setpoint, seabed.nan_to_num(self.config.seabed_depth_range_m[1])
+
+    def _after_physics(
+        self,
+        state: TensorDictBase,
+        setpoint: torch.Tensor,
+        vehicles: TensorDictBase,
+        sea_td: TensorDictBase,
+        decision: TensorDictBase,
+        draws: dict,
+    ) -> TensorDict:
+        """Everything of the decision after the physics steps: the network, the cost, the
+        localisation, the sensors, the ending flags and the observation."""
+        cfg = self.config
+        td = state[SIM_KEY]
+        shape = td.batch_size
+        task = td["task"]
+        hovering = task["auvs", "in_service"]
         eta, nu, act = (vehicles["truth", k] for k in ("eta", "nu", "actuators"))
         position = eta[..., :3]
         steps = decision["steps"]
         # mean speed through the water over the decision, inside the EC model's domain
         speed = (decision["speed_sum"] / steps).clamp(max=_EC_SPEED_LIMIT)
-        task, events = iout.step(task, position, cfg, generator=g)
+        task, events = iout.step(task, position, cfg, generator=None, arrivals=draws["arrivals"])
         accumulators = self.task_metrics.update(
             td["accumulators"], events, speed, decision["shaft_power_sum"] / steps
         )
         cost, terms = iout.task_cost(events, speed, cfg, self.cost_weights)
 
         # the ASV follows the fleet and gives every AUV a USBL fix; the filters take them
-        asv, gnss, fix, fix_cov, valid = asv_fixes(td["asv"], td["asv_gnss_error"], position,
-                                                   self.sea, cfg.decision_dt_s, g)  # fmt: skip
+        asv, gnss, fix, fix_cov, valid = asv_fixes(
+            td["asv"],
+            td["asv_gnss_error"],
+            position,
+            self.sea,
+            cfg.decision_dt_s,
+            None,
+            draws=draws["asv"],
+        )
         mean, cov = self.vehicles.localiser.update_usbl(
             vehicles["kf", "mean"], vehicles["kf", "cov"], fix, fix_cov, valid
         )
         vehicles["kf", "mean"], vehicles["kf", "cov"] = mean, cov
         localisation = self._localise(td["localisation"], mean, fix, valid, position)
         seabed_after = iout.seabed_depth(task["terrain"], eta[..., 0], eta[..., 1], cfg)
-        sensors = self._sensors(sea_td, seabed_after - eta[..., 2], (*shape, self.num_auvs))
+        sensors = self._sensors(
+            sea_td, seabed_after - eta[..., 2], (*shape, self.num_auvs), draws["sensors"]
+        )
 
         # tracking errors count only the decisions whose setpoints the policy set
         own = (~hovering).to(decision["steps"].dtype)

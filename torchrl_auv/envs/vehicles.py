@@ -226,7 +226,8 @@ class VehicleStack:
         sea_state: TensorDict,
         seabed_depth: torch.Tensor | float,
         *,
-        generator: torch.Generator,
+        generator: torch.Generator | None,
+        noise: tuple[torch.Tensor, torch.Tensor] | None = None,
     ) -> tuple[TensorDict, TensorDict, TensorDict]:
         """Run one decision with fixed ``setpoint`` ``[*V, 3]`` (depth m, heading rad, rpm).
 
@@ -236,7 +237,9 @@ class VehicleStack:
             sea_state: ocean state, batch ``[*S]`` (a prefix of ``[*V]``).
             seabed_depth: seabed under each vehicle (m, > 0), float or ``[*V]``, for the
                 depth clamp and the DVL's bottom lock.
-            generator: the only source of randomness.
+            generator: the only source of randomness, unless ``noise`` is given.
+            noise: the decision's standard normals from :meth:`draw_noise` (e.g. drawn ahead
+                of a compiled step); the same numbers as ``generator``'s own draws.
 
         Returns:
             ``(vehicles, sea_state, stats)``; ``stats`` (batch ``[*V]``) holds the sums over
@@ -261,10 +264,18 @@ class VehicleStack:
         dtype, device = setpoint.dtype, setpoint.device
         steps = self.decision_steps
         ones = (1,) * extra
-        sea_noise = torch.randn((steps, 2, *sea_shape), generator=generator, dtype=dtype,
-                                device=device).reshape(steps, 2, *sea_shape, *ones)  # fmt: skip
-        sensor_noise = torch.randn((steps, *shape, 5), generator=generator, dtype=dtype,
-                                   device=device)  # fmt: skip
+        if noise is None:
+            if generator is None:
+                raise ValueError("generator must be a torch.Generator when noise is not given")
+            noise = self.draw_noise(shape, sea_shape, generator, dtype=dtype, device=device)
+        sea_noise, sensor_noise = noise
+        if sea_noise.shape != (steps, 2, *sea_shape) or sensor_noise.shape != (steps, *shape, 5):
+            raise ValueError(
+                f"noise must be ([{steps}, 2, *{tuple(sea_shape)}], [{steps}, *{tuple(shape)}, "
+                f"5]) standard normals (draw_noise), got {tuple(sea_noise.shape)} and "
+                f"{tuple(sensor_noise.shape)}"
+            )
+        sea_noise = sea_noise.reshape(steps, 2, *sea_shape, *ones)
 
         def here(value: torch.Tensor) -> torch.Tensor:  # scene entries seen by every vehicle
             return value.reshape((*sea_shape, *ones, *value.shape[len(sea_shape) :]))
@@ -313,6 +324,24 @@ class VehicleStack:
             new_sea[key] = carry[key].reshape(sea_shape)
         stats = TensorDict({"steps": zero + steps, **sums}, batch_size=shape)
         return out, new_sea, stats
+
+    def draw_noise(
+        self,
+        shape: tuple[int, ...] | torch.Size,
+        sea_shape: tuple[int, ...] | torch.Size,
+        generator: torch.Generator,
+        *,
+        dtype: torch.dtype | None = None,
+        device: torch.device | str | None = None,
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The standard normals of one :meth:`decide` for vehicles ``[*V]`` (``shape``) in
+        scenes ``[*S]`` (``sea_shape``), in the order it draws them: the current's
+        ``[steps, 2, *S]``, then the onboard sensors' ``[steps, *V, 5]`` (DVL x3, depth,
+        compass), ``steps = decision_steps``; ``dtype`` that of the setpoints (default: torch's
+        default dtype)."""
+        kw = {"generator": generator, "dtype": dtype, "device": device}
+        steps = self.decision_steps
+        return (torch.randn((steps, 2, *sea_shape), **kw), torch.randn((steps, *shape, 5), **kw))
 
     def _substep(
         self,

@@ -10,7 +10,7 @@ batched torch; randomness only from passed generators.
 
 from __future__ import annotations
 
-from torchrl_auv.estimation.asv import ASV_SPEED, asv_fixes, follow_fleet
+from torchrl_auv.estimation.asv import ASV_SPEED, asv_draws, asv_fixes, follow_fleet
 from torchrl_auv.estimation.kalman import kf_predict, kf_update
 from torchrl_auv.estimation.localisation import Localiser
 from torchrl_auv.estimation.sensors import (
@@ -32,6 +32,7 @@ __all__ = [
     "Localiser",
     "SensorNoise",
     "altimeter",
+    "asv_draws",
     "asv_fixes",
     "compass",
     "depth_sensor",

@@ -16,7 +16,7 @@ import torch
 
 from torchrl_auv.estimation.sensors import gnss_error_step, usbl_fix_from_asv
 
-__all__ = ["ASV_SPEED", "asv_fixes", "follow_fleet"]
+__all__ = ["ASV_SPEED", "asv_draws", "asv_fixes", "follow_fleet"]
 
 #: The ASV's top speed while it follows the fleet (m/s).
 ASV_SPEED = 2.0
@@ -42,21 +42,47 @@ def asv_fixes(
     auv_positions: torch.Tensor,
     sea,
     dt: float,
-    generator: torch.Generator,
+    generator: torch.Generator | None,
+    *,
+    draws: dict[str, torch.Tensor] | None = None,
 ):
     """One decision of the ASV: it follows the fleet (:func:`follow_fleet` at
     :data:`ASV_SPEED`), its GNSS error evolves (:func:`~torchrl_auv.estimation.gnss_error_step`)
     and it fixes every AUV by USBL (:func:`~torchrl_auv.estimation.usbl_fix_from_asv`).
+
+    ``draws``: the decision's random numbers instead of ``generator``'s (e.g. drawn ahead of
+    a compiled step): ``"gnss"`` ``[*B, 2]`` and ``"usbl"`` ``[3, *B, N]`` standard normals,
+    ``"dropout"`` ``[*B, N]`` uniforms; :func:`asv_draws` draws them as ``generator`` would.
 
     Returns:
         ``(asv, gnss_error, fix, fix_cov, valid)``: the ASV's new position ``[*B, 3]``, its
         GNSS error ``[*B, 2]``, and per AUV the fix ``[*B, N, 3]``, its covariance and whether
         it is valid.
     """
+    if draws is None:
+        draws = asv_draws(gnss_error, auv_positions, generator)
     asv = follow_fleet(asv, auv_positions, ASV_SPEED * dt)
-    gnss = gnss_error_step(gnss_error, sea.gnss_sigma, sea.gnss_time_constant, dt, generator)
+    gnss = gnss_error_step(
+        gnss_error, sea.gnss_sigma, sea.gnss_time_constant, dt, None, standard_normal=draws["gnss"]
+    )
     fix, fix_cov, valid = usbl_fix_from_asv(
         auv_positions, asv[..., None, :].expand_as(auv_positions),
-        gnss[..., None, :].expand(*auv_positions.shape[:-1], 2), sea, generator,
+        gnss[..., None, :].expand(*auv_positions.shape[:-1], 2), sea, None,
+        standard_normal=draws["usbl"], uniform=draws["dropout"],
     )  # fmt: skip
     return asv, gnss, fix, fix_cov, valid
+
+
+def asv_draws(
+    gnss_error: torch.Tensor, auv_positions: torch.Tensor, generator: torch.Generator
+) -> dict[str, torch.Tensor]:
+    """The random numbers of one :func:`asv_fixes` decision, in the order it uses them:
+    the GNSS error's step ``[*B, 2]``, then per AUV the USBL fix's range and bearing noises
+    ``[3, *B, N]`` and its dropout uniforms ``[*B, N]``."""
+    like = {"dtype": auv_positions.dtype, "device": auv_positions.device}
+    gnss = torch.randn(
+        gnss_error.shape, generator=generator, dtype=gnss_error.dtype, device=gnss_error.device
+    )
+    shape = auv_positions.shape[:-1]
+    usbl = torch.randn((3, *shape), generator=generator, **like)
+    return {"gnss": gnss, "usbl": usbl, "dropout": torch.rand(shape, generator=generator, **like)}

@@ -231,12 +231,14 @@ def usbl_fix(
     asv_position: torch.Tensor,
     range_fraction: float,
     bearing_sigma: float,
-    generator: torch.Generator,
+    generator: torch.Generator | None,
     *,
     dropout: float = 0.0,
     min_range_sigma: float = 0.01,
     asv_error: torch.Tensor | None = None,
     asv_error_sigma: float = 0.0,
+    standard_normal: torch.Tensor | None = None,
+    uniform: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     r"""A USBL position fix of the vehicle from the ASV's transducer.
 
@@ -264,6 +266,10 @@ def usbl_fix(
             or ``[*B, 3]`` (m); ``None`` for none.
         asv_error_sigma: standard deviation of that error per horizontal axis (m), added to
             the covariance so that a filter fusing the fix knows its noise.
+        standard_normal, uniform: the draws themselves instead of ``generator``'s (both or
+            neither): ``[3, *B]`` standard normals (range, azimuth, elevation) and ``[*B]``
+            uniforms on [0, 1) for the dropout, e.g. drawn ahead of a compiled step; drawn
+            with ``torch.randn((3, *B))`` then ``torch.rand(B)`` they give the same fix.
 
     Returns:
         ``(fix [*B, 3], covariance [*B, 3, 3], valid [*B] bool)``.
@@ -284,8 +290,20 @@ def usbl_fix(
     rng = line.norm(dim=-1).clamp_min(1e-6)
     azimuth = torch.atan2(line[..., 1], line[..., 0])
     elevation = torch.asin((line[..., 2] / rng).clamp(-1.0, 1.0))
-    kw = {"generator": generator, "dtype": position.dtype, "device": position.device}
-    noise = torch.randn((3, *rng.shape), **kw)
+    if (standard_normal is None) != (uniform is None):
+        raise ValueError("standard_normal and uniform must be given together (or neither)")
+    if standard_normal is None:
+        if generator is None:
+            raise ValueError("generator must be a torch.Generator when the draws are not given")
+        kw = {"generator": generator, "dtype": position.dtype, "device": position.device}
+        standard_normal = torch.randn((3, *rng.shape), **kw)
+        uniform = torch.rand(rng.shape, **kw)
+    elif standard_normal.shape != (3, *rng.shape) or uniform.shape != rng.shape:
+        raise ValueError(
+            f"standard_normal must be shaped {(3, *rng.shape)} and uniform {tuple(rng.shape)}, "
+            f"got {tuple(standard_normal.shape)} and {tuple(uniform.shape)}"
+        )
+    noise = standard_normal
     range_sigma = (range_fraction * rng).clamp_min(min_range_sigma)
     rng_m = rng + range_sigma * noise[0]
     az_m = azimuth + bearing_sigma * noise[1]
@@ -307,7 +325,7 @@ def usbl_fix(
     if asv_error_sigma > 0:
         horizontal = torch.tensor([1.0, 1.0, 0.0], dtype=position.dtype, device=position.device)
         cov = cov + asv_error_sigma**2 * torch.diag(horizontal)
-    valid = torch.rand(rng.shape, **kw) >= dropout  # rand < 1: dropout 0 keeps every fix
+    valid = uniform >= dropout  # rand < 1: dropout 0 keeps every fix
     return fix, cov, valid
 
 
@@ -316,7 +334,10 @@ def usbl_fix_from_asv(
     asv_position: torch.Tensor,
     gnss_error: torch.Tensor,
     sea: SeaState,
-    generator: torch.Generator,
+    generator: torch.Generator | None,
+    *,
+    standard_normal: torch.Tensor | None = None,
+    uniform: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """A USBL fix with the errors a real system has in ``sea`` (spec v2, "Localisation").
 
@@ -324,7 +345,8 @@ def usbl_fix_from_asv(
     :func:`total_bearing_sigma` (instrument and the ASV's wave-driven attitude residual), its
     dropout probability, and the ASV's GNSS error ``gnss_error`` (``[*B, 2]``, north and east,
     m; from :func:`gnss_error_init` / :func:`gnss_error_step`) as the fix's bias, with
-    ``sea.gnss_sigma`` in its covariance. ``asv_position`` is the ASV's *true* transducer
+    ``sea.gnss_sigma`` in its covariance; ``standard_normal`` and ``uniform``: the draws, as
+    in :func:`usbl_fix`. ``asv_position`` is the ASV's *true* transducer
     position ``[*B, 3]`` (z = 0: its heave is taken as measured by its motion sensor).
 
     Returns:
@@ -348,4 +370,6 @@ def usbl_fix_from_asv(
         dropout=sea.usbl_dropout,
         asv_error=gnss_error,
         asv_error_sigma=sea.gnss_sigma,
+        standard_normal=standard_normal,
+        uniform=uniform,
     )

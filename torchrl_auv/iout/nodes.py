@@ -71,7 +71,12 @@ def sample_nodes(
 
 
 def data_arrivals(
-    buffer: torch.Tensor, rate: torch.Tensor, capacity: float, *, generator: torch.Generator
+    buffer: torch.Tensor,
+    rate: torch.Tensor,
+    capacity: float,
+    *,
+    generator: torch.Generator | None,
+    arrivals: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """One decision of Poisson arrivals into the node buffers, with overflow.
 
@@ -79,7 +84,9 @@ def data_arrivals(
         buffer: current fills (packets), ``[*B, M]``.
         rate: Poisson rates (packets/decision), ``[*B, M]``.
         capacity: buffer capacity ``C_max`` (packets).
-        generator: the only source of randomness.
+        generator: the only source of randomness, unless ``arrivals`` is given.
+        arrivals: the decision's arrivals ``[*B, M]`` (packets), drawn ahead (e.g. of a
+            compiled step) with ``torch.poisson(rate.expand_as(buffer), generator=g)``.
 
     Returns:
         ``(buffer, overflow)``: new fills ``[*B, M]`` (at most ``capacity``) and the packets
@@ -92,7 +99,15 @@ def data_arrivals(
         >>> new.tolist(), bool(lost[1] > 0), float(lost[0])
         ([0.0, 5000.0], True, 0.0)
     """
-    arrivals = torch.poisson(rate.expand_as(buffer), generator=generator)
+    if arrivals is None:
+        if generator is None:
+            raise ValueError("generator must be a torch.Generator when arrivals is not given")
+        arrivals = torch.poisson(rate.expand_as(buffer), generator=generator)
+    elif arrivals.shape != buffer.shape:
+        raise ValueError(
+            f"arrivals must be shaped like buffer {tuple(buffer.shape)}, "
+            f"got {tuple(arrivals.shape)}"
+        )
     total = buffer + arrivals
     overflow = (total - capacity).clamp_min(0.0)
     return total - overflow, overflow

@@ -209,7 +209,8 @@ def step(
     auv_positions: torch.Tensor,
     config: IoUTConfig,
     *,
-    generator: torch.Generator,
+    generator: torch.Generator | None,
+    arrivals: torch.Tensor | None = None,
 ) -> tuple[TensorDict, TensorDict]:
     """Advance the sensor network by one decision (module docstring).
 
@@ -217,7 +218,8 @@ def step(
         state: the state at the start of the decision, batch ``[*B]`` (left unchanged).
         auv_positions: true ``[*B, N, 3]`` NED positions at the end of the decision (m).
         config: task configuration.
-        generator: the only source of randomness (Poisson arrivals).
+        generator: the only source of randomness (Poisson arrivals), unless ``arrivals``
+            (``[*B, M]`` packets, see :func:`~torchrl_auv.iout.nodes.data_arrivals`) is given.
 
     Returns:
         ``(state, events)``. ``events`` has batch ``[*B]`` and the keys
@@ -256,7 +258,11 @@ def step(
 
     # 1. arrivals
     buffer, overflow = data_arrivals(
-        nodes["buffer"], nodes["rate"], config.buffer_capacity, generator=generator
+        nodes["buffer"],
+        nodes["rate"],
+        config.buffer_capacity,
+        generator=generator,
+        arrivals=arrivals,
     )
 
     # 2. ongoing services
