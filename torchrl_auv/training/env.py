@@ -58,9 +58,10 @@ def make_env(
         rate_model: ``shannon`` or ``paper`` link rate.
         max_steps: decisions per episode (default the env's, 1000).
         device: where the env's tensors live.
-        compile_physics: run the 20 Hz physics through ``torch.compile`` (about a minute of
-            compilation on a fresh machine, seconds from the on-disk cache; then about 5x
-            faster at batch 1, see ``benchmarks/bench_speed.py``).
+        compile_physics: run the decision through ``torch.compile`` (the 20 Hz physics and
+            the code around it; minutes of compilation per batch shape on a fresh machine,
+            seconds from the on-disk cache; then about 10x faster at batch 1, see
+            ``benchmarks/bench_speed.py``).
     """
     if num_envs < 1:
         raise ValueError(f"num_envs must be >= 1, got {num_envs}")
