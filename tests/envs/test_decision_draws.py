@@ -47,6 +47,8 @@ def test_asv_fixes_from_asv_draws_equal_the_generators():
     draws = asv_draws(gnss, auvs, torch.Generator().manual_seed(9))
     assert draws["usbl"].shape == (3, 1, 2) and draws["dropout"].shape == (1, 2)
     _same(own, asv_fixes(start, gnss, auvs, sea, 1.0, None, draws=draws))
+    with pytest.raises(ValueError, match=r"generator must be a torch\.Generator"):
+        asv_fixes(start, gnss, auvs, sea, 1.0, None)
 
 
 def test_data_arrivals_from_given_arrivals_equal_the_generators():

@@ -60,6 +60,8 @@ def asv_fixes(
         it is valid.
     """
     if draws is None:
+        if generator is None:  # torch's global generator is never a silent fallback
+            raise ValueError("generator must be a torch.Generator when draws is not given")
         draws = asv_draws(gnss_error, auv_positions, generator)
     asv = follow_fleet(asv, auv_positions, ASV_SPEED * dt)
     gnss = gnss_error_step(
