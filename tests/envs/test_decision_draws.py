@@ -90,6 +90,13 @@ def test_a_decision_after_its_draws_is_pure_and_repeatable(flatten):
     env.rng.set_state(start)
     first = env._simulate_step(td.clone())
     assert torch.equal(env.rng.get_state(), after_draws)  # the step drew its draws, no more
+    # the drawn arrivals reach the buffers (no service ends in a scene's first decision)
+    assert not sim["task", "auvs", "in_service"].any()
+    filled = sim["task", "nodes", "buffer"] + draws["arrivals"]
+    want = filled.clamp(max=env.config.buffer_capacity)
+    assert draws["arrivals"].sum() > 0 and torch.equal(
+        first["sim", "task", "nodes", "buffer"], want
+    )
     setpoint, seabed = env._before_physics(sim, env._agent_action(td))
     fleet = TensorDict({k: sim[k] for k in ("truth", "kf", "controller")}, batch_size=(2, 2))
     vehicles, sea_td, decision = env.vehicles.decide(
