@@ -39,26 +39,35 @@ def main(cfg: DictConfig) -> None:
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
     critic = training.make_lyapunov_critic(env, cfg.network.hidden).to(cfg.device)
-    learner = training.lac_from_config(cfg, env, actor, critic)
+    #    the rule (argmin, or anchored on the medoid) is shared by the selector and the
+    #    critics' backup (selection.backup=candidates: on the next state's candidates)
+    rule = training.selection_rule_from_config(cfg)
+    learner = training.lac_from_config(cfg, env, actor, critic, rule=rule)
     policy = training.make_selection_policy(proposer, critic, mode="lyapunov", loss=learner.loss,
                                             actor=actor if cfg.selection.include_actor else None,
-                                            critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
+                                            critic_out_key=training.LYAPUNOV_RAW,
+                                            rule=rule)  # fmt: skip
     advising = training.AdvisorLoop(cfg, run.dir, run.logger, learner.loss)
     buffer = training.buffer_from_config(cfg, run.dir)
     remaining = run.restore({**learner.checkpoint_modules(), **advising.checkpoint_modules()},
                             buffer)  # resume: the newest  # fmt: skip
+    next_keys = training.CANDIDATE_KEYS if training.selection_backup(cfg) == "candidates" else ()
+    training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
     # 3. collect with the policy, train from the buffer, consult the advisor
     collector = training.collector_from_config(cfg, policy, env=env,
                                                total_frames=max(remaining, 1))  # fmt: skip
     run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
-        buffer.extend(training.select_for_replay(data))
+        if next_keys:  # the next state's candidates, for the critics' backup
+            training.with_next_candidates(data, proposer)
+        buffer.extend(training.select_for_replay(data, next_keys))
         run.progress.frames += data.numel()
         for _ in range(cfg.optim.updates_per_batch):
             out = learner.step(buffer.sample().to(cfg.device))
             run.progress.updates += 1
         metrics = {**learner.metrics(out), **advising.step(run.progress.frames, data, out)}
+        training.start_deviating(rule, run.progress.frames, cfg)
         collector.update_policy_weights_()  # workers: new weights and Lyapunov form
         run.step(data, metrics, learner.loss.spec)
     facts = {**stage.facts, **run.finish(collector)}

@@ -36,24 +36,33 @@ def main(cfg: DictConfig) -> None:
     # 2. env, actor, SAC learner, the proposer-selector policy ranking with the live twin Q
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
-    learner = training.sac_from_config(cfg, env, actor)
+    #    the rule (argmax, or anchored on the medoid) is shared by the selector and the
+    #    critics' backup (selection.backup=candidates: on the next state's candidates)
+    rule = training.selection_rule_from_config(cfg)
+    learner = training.sac_from_config(cfg, env, actor, rule=rule)
     q_critic = QEnsembleCritic.from_loss(learner.loss)  # the min over the twin Q networks
     policy = training.make_selection_policy(proposer, q_critic, mode="q",
                                             actor=actor if cfg.selection.include_actor else None,
-                                            critic_out_key=q_critic.out_keys[0])  # fmt: skip
+                                            critic_out_key=q_critic.out_keys[0],
+                                            rule=rule)  # fmt: skip
     buffer = training.buffer_from_config(cfg, run.dir)
     remaining = run.restore(learner.checkpoint_modules(), buffer)  # resume: the newest
+    next_keys = training.CANDIDATE_KEYS if training.selection_backup(cfg) == "candidates" else ()
+    training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
     # 3. collect with the policy, train from the buffer
     collector = training.collector_from_config(cfg, policy, env=env,
                                                total_frames=max(remaining, 1))  # fmt: skip
     run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
-        buffer.extend(training.select_for_replay(data))
+        if next_keys:  # the next state's candidates, for the critics' backup
+            training.with_next_candidates(data, proposer)
+        buffer.extend(training.select_for_replay(data, next_keys))
         run.progress.frames += data.numel()
         for _ in range(cfg.optim.updates_per_batch):
             out = learner.step(buffer.sample().to(cfg.device))
             run.progress.updates += 1
+        training.start_deviating(rule, run.progress.frames, cfg)
         collector.update_policy_weights_()  # worker processes / Ray act with the new weights
         run.step(data, learner.metrics(out))
     facts = {**stage.facts, **run.finish(collector)}

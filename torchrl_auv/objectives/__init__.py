@@ -6,6 +6,7 @@ whose data carries those keys.
 
 from __future__ import annotations
 
+from torchrl_auv.objectives.candidate_backup import BACKUPS, CandidateBackupSACLoss
 from torchrl_auv.objectives.denoising import DenoisingLoss
 from torchrl_auv.objectives.lyapunov import MODES, LyapunovActorCriticLoss
 from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
@@ -17,20 +18,25 @@ from torchrl_auv.objectives.pretraining import (
 )
 from torchrl_auv.objectives.q_filter import Q_REDUCTIONS, QEnsembleCritic
 from torchrl_auv.objectives.selection import SELECTION_MODES, CandidateSelector
+from torchrl_auv.objectives.selection_rule import ANCHORS, SelectionRule
 
 __all__ = [
+    "ANCHORS",
+    "BACKUPS",
     "FORMS",
     "LR_SCHEDULES",
     "MODES",
     "PRIORS",
     "Q_REDUCTIONS",
     "SELECTION_MODES",
+    "CandidateBackupSACLoss",
     "CandidateSelector",
     "DenoisingLoss",
     "LyapunovActorCriticLoss",
     "LyapunovSpec",
     "PretrainResult",
     "QEnsembleCritic",
+    "SelectionRule",
     "heldout_denoising_loss",
     "lyapunov_value",
     "pretrain_proposer",

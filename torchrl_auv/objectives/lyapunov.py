@@ -64,13 +64,15 @@ import math
 from dataclasses import dataclass
 
 import torch
-from tensordict import NestedKey, TensorDict, TensorDictBase, TensorDictParams
+from tensordict import NestedKey, TensorDict, TensorDictBase, TensorDictParams, unravel_key
 from tensordict.nn import TensorDictModule
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import ValueEstimators
 
+from torchrl_auv.objectives.candidate_backup import check_backup, next_candidates, per_candidate
 from torchrl_auv.objectives.lyapunov_forms import FORMS, LyapunovSpec, lyapunov_value
+from torchrl_auv.objectives.selection_rule import SelectionRule
 
 __all__ = ["LOSS_FUNCTIONS", "MODES", "LyapunovActorCriticLoss"]
 
@@ -116,10 +118,20 @@ class LyapunovActorCriticLoss(LossModule):
             observation and action, writing the ``qvalue`` key): trained on ``task_cost``, it
             gives the actor the task objective while the Lyapunov critic, trained on ``cost``,
             gives the constraint (module docstring, "Two critics"). ``None``: LAC as published.
+        backup: the next action both critics' targets bootstrap on: ``"actor"`` (LAC as
+            published: :math:`a' \\sim \\pi(s')`) or ``"candidates"``: the candidate the
+            selector would execute at :math:`s'` (argmin :math:`L_{target}(s', a'_k)` under
+            ``rule``; :mod:`~torchrl_auv.objectives.candidate_backup`), read from the
+            ``candidates`` and ``anchor`` keys under ``"next"``. The actor's own loss is
+            unchanged.
+        rule: the selector's :class:`~torchrl_auv.objectives.SelectionRule` (by reference;
+            default argmin).
 
     Keys (``set_keys``): ``action``, ``reward``, ``cost`` (the Lyapunov critic's cost; ``-reward``
     when the default ``"cost"`` is absent; a key set with ``set_keys`` must be in the data),
-    ``task_cost`` (the Q critic's; likewise), ``done``, ``terminated``, ``value`` (the Lyapunov
+    ``task_cost`` (the Q critic's; likewise), ``done``, ``terminated``, ``candidates`` and
+    ``anchor`` (``backup="candidates"``: the next state's candidate first actions
+    ``[*B, K, A]`` and anchor index ``[*B]``), ``value`` (the Lyapunov
     critic's out key), ``qvalue`` (the Q critic's out key; a critic that does not write its key
     is a ``ValueError`` naming both), ``observation`` (read by a prior), ``log_prob``.
 
@@ -161,6 +173,8 @@ class LyapunovActorCriticLoss(LossModule):
         qvalue: NestedKey = "state_action_value"
         observation: NestedKey = "observation"
         log_prob: NestedKey = "action_log_prob"
+        candidates: NestedKey = ("proposer", "first_actions")
+        anchor: NestedKey = ("proposer", "medoid")
 
     default_keys = _AcceptedKeys
     default_value_estimator = ValueEstimators.TD0
@@ -191,7 +205,10 @@ class LyapunovActorCriticLoss(LossModule):
         spec: LyapunovSpec | None = None,
         loss_function: str = "l2",
         qvalue_network: TensorDictModule | None = None,
+        backup: str = "actor",
+        rule: SelectionRule | None = None,
     ) -> None:
+        check_backup(backup)
         if loss_function not in LOSS_FUNCTIONS:
             raise ValueError(
                 f"loss_function must be one of {LOSS_FUNCTIONS}, got {loss_function!r}"
@@ -226,6 +243,9 @@ class LyapunovActorCriticLoss(LossModule):
         self._target_entropy = target_entropy
         self._action_spec = action_spec
         self.gamma = 0.99
+        self.backup = backup
+        # by reference, not a submodule: the selector owns the rule and its deviate switch
+        self.__dict__["rule"] = rule if rule is not None else SelectionRule()
 
     # -- configuration ---------------------------------------------------------------------
     @property
@@ -310,6 +330,10 @@ class LyapunovActorCriticLoss(LossModule):
         keys = [*self.actor_network.in_keys, self.tensor_keys.action]
         keys += [("next", k) for k in self.actor_network.in_keys]
         keys += [("next", self.tensor_keys.reward), ("next", self.tensor_keys.terminated)]
+        if self.backup == "candidates":
+            keys.append(unravel_key(("next", self.tensor_keys.candidates)))
+            if self.rule.anchored:
+                keys.append(unravel_key(("next", self.tensor_keys.anchor)))
         return list(dict.fromkeys(keys))
 
     @property
@@ -347,6 +371,21 @@ class LyapunovActorCriticLoss(LossModule):
         with params.to_module(self.qvalue_network):
             return _read_out(self.qvalue_network(td), self.tensor_keys.qvalue, "qvalue",
                              "qvalue_network", self.qvalue_network)  # fmt: skip
+
+    def _executed_next(self, next_td: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
+        """The candidate the selector executes at the next state (argmin of the target
+        critic's :math:`L(s', a'_k)` under ``rule``) and its target value ``[*B, 1]``."""
+        candidates, anchor = next_candidates(next_td, self.tensor_keys.candidates,
+                                             self.tensor_keys.anchor, self.rule)  # fmt: skip
+        action_key = self.tensor_keys.action
+        inputs = {*self.lyapunov_network.in_keys, self.tensor_keys.observation} - {action_key}
+        td = per_candidate(next_td, [k for k in inputs if next_td.get(k, None) is not None],
+                           candidates.shape[-2])  # fmt: skip
+        values = self._lyapunov(td, candidates, self.target_lyapunov_network_params)[..., 0]
+        index = self.rule.choose(-values, -values, anchor)  # [..., K] -> [...]
+        pick = index[..., None, None].expand(*index.shape, 1, candidates.shape[-1])
+        next_action = candidates.gather(-2, pick).squeeze(-2)
+        return next_action, values.gather(-1, index.unsqueeze(-1))
 
     def _cost(self, next_td: TensorDictBase, name: str = "cost") -> torch.Tensor:
         """The cost under the ``name`` key (``cost`` or ``task_cost``); when the data lack it,
@@ -395,8 +434,12 @@ class LyapunovActorCriticLoss(LossModule):
         # critic: L(s, a) towards c + gamma (1 - terminated) L_target(s', a')
         continues = 1 - terminated.to(cost.dtype)
         with torch.no_grad():
-            next_action, _ = self._sample(next_td, actor_params.detach())
-            next_value = self._lyapunov(next_td, next_action, self.target_lyapunov_network_params)
+            if self.backup == "candidates":
+                next_action, next_value = self._executed_next(next_td)
+            else:
+                next_action, _ = self._sample(next_td, actor_params.detach())
+                next_value = self._lyapunov(next_td, next_action,
+                                            self.target_lyapunov_network_params)  # fmt: skip
             target = cost + self.gamma * continues * next_value
         value = self._lyapunov(td, action, critic_params)
         loss_lyapunov = self._td_loss(value, target)

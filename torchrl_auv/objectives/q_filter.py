@@ -90,14 +90,19 @@ class QEnsembleCritic(TensorDictModuleBase):
     def num_nets(self) -> int:
         return int(self.params.batch_size[0])
 
-    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+    def members(self, tensordict: TensorDictBase) -> torch.Tensor:
+        """Every member's value ``[n, *B, 1]`` (no gradient; ``tensordict`` is not written):
+        the ensemble's spread, e.g. for :class:`~torchrl_auv.objectives.SelectionRule`."""
         values = []
         with torch.no_grad():
             for i in range(self.num_nets):
                 with self.params[i].to_module(self.qvalue_network):
                     out = self.qvalue_network(tensordict.select(*self.in_keys).copy())
                 values.append(out.get(self.out_keys[0]))
-        stacked = torch.stack(values)
+        return torch.stack(values)
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        stacked = self.members(tensordict)
         value = stacked.min(0).values if self.reduce == "min" else stacked.mean(0)
         tensordict.set(self.out_keys[0], value)
         return tensordict

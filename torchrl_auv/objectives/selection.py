@@ -8,7 +8,9 @@ paper's form :math:`L(s, a_k) - L(s, a) + \alpha c` (the other terms do not depe
 candidate), so one Lyapunov mode serves both. Optionally the actor's own action joins as one
 more candidate. Exploration: a softmax over the scores with a temperature, or epsilon-greedy.
 The ranking (best first) is kept so that OA, CA1 ... CA4 of the paper's Fig. 8/9 are
-recoverable.
+recoverable. A :class:`~torchrl_auv.objectives.SelectionRule` anchored on the medoid makes the
+choice a safe improvement on the prior: the prior's consensus candidate unless a candidate
+beats it by more than the critic ensemble's disagreement.
 """
 
 from __future__ import annotations
@@ -19,7 +21,9 @@ import torch
 from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
 from tensordict.nn import TensorDictModuleBase
 
+from torchrl_auv.modules.consensus import medoid_index
 from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
+from torchrl_auv.objectives.selection_rule import SelectionRule
 
 __all__ = ["SELECTION_MODES", "CandidateSelector"]
 
@@ -52,7 +56,9 @@ class CandidateSelector(TensorDictModuleBase):
     ``[*B, A]``; writes ``action_key`` ``[*B, A]`` (the chosen first action) and under
     ``("selector", ...)`` next to the candidates: ``index`` ``[*B]`` (int64; ``K`` is the
     actor's action), ``scores`` ``[*B, K(+1)]`` (higher is better: :math:`Q` or :math:`-L`) and
-    ``ranking`` ``[*B, K(+1)]`` (candidate indices, best first: OA, CA1, ...).
+    ``ranking`` ``[*B, K(+1)]`` (candidate indices, best first: OA, CA1, ...); with an
+    anchored ``rule`` also ``anchor`` ``[*B]`` (the medoid's index among the K candidates).
+    The executed ``index`` is ``ranking[..., 0]`` unless the rule keeps the anchor.
 
     Args:
         critic: a module reading the observation and ``critic_action_key`` and writing
@@ -67,6 +73,10 @@ class CandidateSelector(TensorDictModuleBase):
         temperature, epsilon: exploration parameters.
         include_actor_action: score the actor's action as one more candidate.
         generator: source of exploration draws.
+        rule: which scored candidate is executed
+            (:class:`~torchrl_auv.objectives.SelectionRule`; default: the best). With a critic
+            that has ``members`` (:class:`~torchrl_auv.objectives.QEnsembleCritic`, mode
+            ``"q"``) the rule compares the reduced score with the members' maximum.
 
     Examples:
         >>> from torchrl.modules import MLP, ValueOperator
@@ -96,6 +106,7 @@ class CandidateSelector(TensorDictModuleBase):
         critic_action_key: NestedKey = "action",
         critic_out_key: NestedKey = "state_action_value",
         generator: torch.Generator | None = None,
+        rule: SelectionRule | None = None,
     ) -> None:
         super().__init__()
         if mode not in SELECTION_MODES:
@@ -116,6 +127,7 @@ class CandidateSelector(TensorDictModuleBase):
         self.exploration, self.temperature, self.epsilon = exploration, temperature, epsilon
         self.include_actor_action = include_actor_action
         self.generator = generator
+        self.rule = rule if rule is not None else SelectionRule()
         self.candidates_key = unravel_key(candidates_key)
         self.observation_key = unravel_key(observation_key)
         self.action_key = unravel_key(action_key)
@@ -130,6 +142,8 @@ class CandidateSelector(TensorDictModuleBase):
         self.out_keys = [self.action_key] + [
             (*self.selector_key, k) for k in ("index", "scores", "ranking")
         ]
+        if self.rule.anchored:
+            self.out_keys.append((*self.selector_key, "anchor"))
 
     @property
     def spec(self) -> LyapunovSpec:
@@ -159,21 +173,34 @@ class CandidateSelector(TensorDictModuleBase):
 
     def scores(self, observation: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """Scores ``[*B, K]`` (higher is better) of first actions ``[*B, K, A]``."""
+        return self.score_bounds(observation, actions)[0]
+
+    def score_bounds(
+        self, observation: torch.Tensor, actions: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The scores ``[*B, K]`` (:meth:`scores`) and an optimistic bound on them: the
+        maximum over the critic's members where it has them (``mode="q"``), else the scores."""
         k = actions.shape[-2]
         obs = observation.unsqueeze(-2).expand(*observation.shape[:-1], k, observation.shape[-1])
         td = TensorDict(
             {self.observation_key: obs, self.critic_action_key: actions},
             batch_size=actions.shape[:-1],
         )
+        members = getattr(self.critic, "members", None)
+        if self.mode == "q" and members is not None:
+            values = members(td)[..., 0]  # [n, *B, K]
+            reduced = values.min(0).values if self.critic.reduce == "min" else values.mean(0)
+            return reduced, values.max(0).values
         with torch.no_grad():
             out = self.critic(td)
         raw = out.get(self.critic_out_key, None)
         if raw is None:
             raise self._missing_critic_output(out)
         if self.mode == "q":
-            return raw[..., 0]
+            return raw[..., 0], raw[..., 0]
         spec = self.spec
-        return -lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
+        score = -lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
+        return score, score
 
     def _missing_critic_output(self, out: TensorDictBase) -> KeyError:
         """The error for a critic that did not write ``critic_out_key``: names what it wrote."""
@@ -196,15 +223,20 @@ class CandidateSelector(TensorDictModuleBase):
         if candidates is None:
             raise ValueError(f"candidates_key {self.candidates_key!r} is missing from the input")
         observation = tensordict.get(self.observation_key)
-        first = candidates[..., 0, :] if candidates.dim() >= observation.dim() + 2 else candidates
+        chunked = candidates.dim() >= observation.dim() + 2  # [*B, K, H, A], else [*B, K, A]
+        first = candidates[..., 0, :] if chunked else candidates
         if self.include_actor_action:
             own = tensordict.get(self.actor_action_key, None)
             if own is None:
                 raise ValueError(f"actor_action_key {self.actor_action_key!r} is missing")
             first = torch.cat([first, own.unsqueeze(-2)], -2)
-        scores = self.scores(observation, first)
+        scores, upper = self.score_bounds(observation, first)
         ranking = scores.argsort(-1, descending=True)
         index = ranking[..., 0]
+        if self.rule.anchored:
+            anchor = medoid_index(candidates if chunked else candidates.unsqueeze(-2))
+            index = self.rule.choose(scores, upper, anchor)
+            tensordict.set((*self.selector_key, "anchor"), anchor)
         # draws on the generator's device (a CPU generator for a selector on a GPU)
         draw_on = scores.device if self.generator is None else self.generator.device
         if self.exploration == "softmax":

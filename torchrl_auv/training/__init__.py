@@ -11,6 +11,8 @@ module            builds
 ``learner``       :class:`Learner`, what one gradient step touches
 ``first_stage``   the pretrained proposer (cached artefact per first-stage values)
 ``selection``     the proposer + selector policy, ranked candidates, the evaluation rows
+``candidates``    the selection rule of ``cfg.selection``, the next state's candidates the
+                  critics' candidate backup reads
 ``replay``        the replay buffer and what it stores of a frame
 ``collectors``    TorchRL collectors: local, worker processes, Ray
 ``run``           :class:`Run`: folder, logger, checkpoint, counters, final evaluation
@@ -25,6 +27,17 @@ out, as in TorchRL's sota-implementations); copy one and swap a piece to build y
 from __future__ import annotations
 
 from torchrl_auv.training.artefacts import ArtefactCache, values_key
+from torchrl_auv.training.candidates import (
+    CANDIDATE_KEYS,
+    CANDIDATES,
+    NEXT_ANCHOR,
+    NEXT_CANDIDATES,
+    check_selection,
+    selection_backup,
+    selection_rule_from_config,
+    start_deviating,
+    with_next_candidates,
+)
 from torchrl_auv.training.checkpointing import (
     ProgressState,
     SpecState,
@@ -137,12 +150,16 @@ __all__ = [
     "ACTION",
     "ACTOR_ACTION",
     "AGENTS",
+    "CANDIDATES",
+    "CANDIDATE_KEYS",
     "COLLECTOR_BACKENDS",
     "EPISODE_METRICS",
     "FIRST_STAGE_VERSION",
     "LAC_LOGGED_KEYS",
     "LYAPUNOV_COSTS",
     "LYAPUNOV_RAW",
+    "NEXT_ANCHOR",
+    "NEXT_CANDIDATES",
     "OBSERVATION",
     "POLICIES",
     "Q_VALUE",
@@ -173,6 +190,7 @@ __all__ = [
     "check_endpoint",
     "check_ray_address",
     "check_ray_backend",
+    "check_selection",
     "checkpoint_problems",
     "close_logger",
     "collector_from_config",
@@ -222,9 +240,13 @@ __all__ = [
     "sac_optimisers",
     "seed_everything",
     "select_for_replay",
+    "selection_backup",
+    "selection_rule_from_config",
+    "start_deviating",
     "start_run",
     "truncate_curve",
     "values_key",
+    "with_next_candidates",
     "write_eval",
     "write_summary",
 ]

@@ -18,6 +18,7 @@ from torchrl_auv.objectives import LR_SCHEDULES
 from torchrl_auv.objectives.lyapunov_forms import FORMS
 from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
+from torchrl_auv.training.candidates import check_selection
 from torchrl_auv.training.collectors import COLLECTOR_BACKENDS, check_ray_backend
 
 __all__ = [
@@ -97,6 +98,9 @@ def check_choices(cfg: Mapping) -> None:
         value = _get(cfg, key)
         if value is not None and (not isinstance(value, int) or value < 1):
             raise ValueError(f"{key} must be an integer >= 1, got {value!r}")
+    selection = _get(cfg, "selection")
+    if isinstance(selection, Mapping):
+        check_selection(selection)
     replan, horizon = _get(cfg, "proposer.alone_replan_every"), _get(cfg, "proposer.horizon")
     if replan is not None and horizon is not None and replan > horizon:
         raise ValueError(f"proposer.alone_replan_every must be <= proposer.horizon ({horizon}): "

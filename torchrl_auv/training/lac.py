@@ -23,7 +23,8 @@ from torchrl.modules import ProbabilisticActor
 from torchrl.objectives import SoftUpdate
 
 from torchrl_auv import advisor as advisors
-from torchrl_auv.objectives import LyapunovActorCriticLoss
+from torchrl_auv.objectives import LyapunovActorCriticLoss, SelectionRule
+from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.checkpointing import SpecState
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
 from torchrl_auv.training.learner import Learner
@@ -61,6 +62,8 @@ def make_lac_loss(
     loss_function: str = "l2",
     cost: str = "task",
     hidden: Sequence[int] = (256, 256),
+    backup: str = "actor",
+    rule: SelectionRule | None = None,
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
     (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
@@ -70,20 +73,22 @@ def make_lac_loss(
     Lyapunov critic learns ``("agents", "stability_cost")`` (0 in service) and carries the
     constraint, while a task Q critic (:func:`~torchrl_auv.training.make_q_critic` with
     ``hidden``) learns ``("agents", "cost")`` and gives the actor the task. The loss (the
-    task critic and the dual variables too) is on the actor's device."""
+    task critic and the dual variables too) is on the actor's device. ``backup`` and ``rule``:
+    what both critics bootstrap on (the loss's arguments of those names)."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
     qvalue = make_q_critic(env, hidden) if cost == "stability" else None
     loss = LyapunovActorCriticLoss(
         actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
         target_entropy=-float(observation_action_dims(env)[1]), loss_function=loss_function,
-        qvalue_network=qvalue,
+        qvalue_network=qvalue, backup=backup, rule=rule,
     )  # fmt: skip
     lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
     loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=lyapunov_cost,
                   task_cost=(AGENTS, "cost"), done=(AGENTS, "done"),
                   terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW, qvalue=Q_VALUE,
-                  observation=OBSERVATION)  # fmt: skip
+                  observation=OBSERVATION, candidates=(AGENTS, "proposer", "first_actions"),
+                  anchor=(AGENTS, "proposer", "medoid"))  # fmt: skip
     loss.make_value_estimator(gamma=gamma)
     return loss.to(next(actor.parameters()).device)
 
@@ -119,7 +124,11 @@ def feedback_batch(data: TensorDictBase) -> TensorDict:
 
 
 def lac_from_config(
-    cfg: Mapping, env, actor: ProbabilisticActor, critic: TensorDictModule
+    cfg: Mapping,
+    env,
+    actor: ProbabilisticActor,
+    critic: TensorDictModule,
+    rule: SelectionRule | None = None,
 ) -> Learner:
     """The LAC learner of a recipe config: :func:`make_lac_loss` with ``cfg.optim`` (gamma,
     lambda_max, the critics' loss function), ``cfg.advisor``'s initial form and stability
@@ -127,12 +136,14 @@ def lac_from_config(
     loss's first forward, as TorchRL requires); :func:`lac_optimisers`; logging
     :data:`LAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent: ``False``) compiles the update
     (:class:`~torchrl_auv.training.Learner`). ``critic`` is the Lyapunov critic the selector
-    ranks with too."""
+    ranks with too; ``cfg.selection.backup`` (absent: ``actor``) with the selector's ``rule``
+    is what the critics bootstrap on."""
     optim, advisor = cfg["optim"], cfg["advisor"]
     loss = make_lac_loss(actor, critic, env, gamma=optim["gamma"], form=advisor["form"],
                          stability_weight=advisor["stability_weight"],
                          lambda_max=optim["lambda_max"], loss_function=optim["loss_function"],
-                         cost=cfg["lyapunov"]["cost"], hidden=cfg["network"]["hidden"])  # fmt: skip
+                         cost=cfg["lyapunov"]["cost"], hidden=cfg["network"]["hidden"],
+                         backup=selection_backup(cfg), rule=rule)  # fmt: skip
     target_updater = SoftUpdate(loss, tau=optim["tau"])
     return Learner(
         loss,

@@ -10,7 +10,7 @@ Examples:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from tensordict import TensorDictBase
@@ -42,9 +42,10 @@ REPLAY_KEYS = (
 )
 
 
-def select_for_replay(data: TensorDictBase) -> TensorDictBase:
-    """The frames of a collected batch with only :data:`REPLAY_KEYS`, flattened to ``[frames]``."""
-    return data.select(*REPLAY_KEYS).reshape(-1)
+def select_for_replay(data: TensorDictBase, extra_keys: Sequence = ()) -> TensorDictBase:
+    """The frames of a collected batch with only :data:`REPLAY_KEYS` (and ``extra_keys``, e.g.
+    :data:`~torchrl_auv.training.CANDIDATE_KEYS`), flattened to ``[frames]``."""
+    return data.select(*REPLAY_KEYS, *extra_keys).reshape(-1)
 
 
 def bytes_per_frame(frame: TensorDictBase) -> int:

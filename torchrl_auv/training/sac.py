@@ -20,6 +20,8 @@ from torchrl.modules import ProbabilisticActor
 from torchrl.objectives import SACLoss, SoftUpdate
 
 from torchrl_auv.envs import DataCollectionEnv
+from torchrl_auv.objectives import CandidateBackupSACLoss, SelectionRule
+from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.keys import ACTION, AGENTS, Q_VALUE
 from torchrl_auv.training.learner import Learner
 from torchrl_auv.training.networks import make_q_critic, observation_action_dims
@@ -40,17 +42,25 @@ def make_sac_loss(
     num_qvalue_nets: int = 2,
     tau: float = 0.005,
     loss_function: str = "smooth_l1",
+    backup: str = "actor",
+    rule: SelectionRule | None = None,
 ) -> tuple[SACLoss, SoftUpdate]:
     """TorchRL's ``SACLoss`` on the agents layout (reward ``== -cost``) and its target updater.
 
     The target entropy is ``-action_dim`` per AUV; ``loss_function`` is SACLoss's Q loss
-    (``smooth_l1``, SACLoss's own default, or ``l2``).
+    (``smooth_l1``, SACLoss's own default, or ``l2``). ``backup="candidates"``: the Q target
+    bootstraps on the candidate the selector (``rule``) executes at the next state
+    (:class:`~torchrl_auv.objectives.CandidateBackupSACLoss`, a ``SACLoss``).
     """
-    loss = SACLoss(actor_network=actor, qvalue_network=critic, num_qvalue_nets=num_qvalue_nets,
-                   alpha_init=alpha_init, target_entropy=-float(observation_action_dims(env)[1]),
-                   delay_qvalue=True, loss_function=loss_function)  # fmt: skip
+    loss = CandidateBackupSACLoss(
+        actor_network=actor, qvalue_network=critic, num_qvalue_nets=num_qvalue_nets,
+        alpha_init=alpha_init, target_entropy=-float(observation_action_dims(env)[1]),
+        delay_qvalue=True, loss_function=loss_function, backup=backup, rule=rule,
+    )  # fmt: skip
     loss.set_keys(action=ACTION, state_action_value=Q_VALUE, reward=(AGENTS, "reward"),
-                  done=(AGENTS, "done"), terminated=(AGENTS, "terminated"))  # fmt: skip
+                  done=(AGENTS, "done"), terminated=(AGENTS, "terminated"),
+                  candidates=(AGENTS, "proposer", "first_actions"),
+                  anchor=(AGENTS, "proposer", "medoid"))  # fmt: skip
     loss.make_value_estimator(gamma=gamma)
     return loss, SoftUpdate(loss, tau=tau)
 
@@ -66,16 +76,19 @@ def sac_optimisers(loss, optim: Mapping) -> dict[str, torch.optim.Optimizer]:
     }  # fmt: skip
 
 
-def sac_from_config(cfg: Mapping, env: DataCollectionEnv, actor: ProbabilisticActor) -> Learner:
+def sac_from_config(cfg: Mapping, env: DataCollectionEnv, actor: ProbabilisticActor,
+                    rule: SelectionRule | None = None) -> Learner:  # fmt: skip
     """The SAC learner of a recipe config: a Q ensemble of ``cfg.network.hidden``,
     :func:`make_sac_loss` with ``cfg.optim``'s gamma, initial temperature, tau and Q loss,
+    ``cfg.selection.backup`` (absent: ``actor``) and the selector's ``rule``,
     :func:`sac_optimisers`, logging :data:`SAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent:
     ``False``) compiles the update (:class:`~torchrl_auv.training.Learner`)."""
     optim = cfg["optim"]
     critic = make_q_critic(env, cfg["network"]["hidden"]).to(cfg["device"])
     loss, target_updater = make_sac_loss(
         actor, critic, env, gamma=optim["gamma"], alpha_init=optim["alpha_init"],
-        tau=optim["tau"], loss_function=optim["loss_function"],
+        tau=optim["tau"], loss_function=optim["loss_function"], backup=selection_backup(cfg),
+        rule=rule,
     )  # fmt: skip
     return Learner(
         loss,

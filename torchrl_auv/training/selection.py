@@ -24,7 +24,7 @@ from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.modules import ProbabilisticActor
 
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone
-from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss
+from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, SelectionRule
 from torchrl_auv.training.evaluation import SameRowAs, reference_policies
 from torchrl_auv.training.keys import ACTION, ACTOR_ACTION, AGENTS, OBSERVATION
 
@@ -55,13 +55,16 @@ def make_selection_policy(
     critic_out_key,
     actor: ProbabilisticActor | None = None,
     loss: LyapunovActorCriticLoss | None = None,
+    rule: SelectionRule | None = None,
 ) -> TensorDictSequential:
     """Proposer, then (with ``actor``) the actor's own action, then the selector: argmax Q
     (``mode="q"``) or argmin L (``"lyapunov"``) over the K candidates' first actions (and the
     actor's); writes the executed ``("agents", "action")``. With ``loss`` (mode
     ``"lyapunov"``) the selector reads the loss's Lyapunov spec, which the loss owns
     (:meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.share_spec`): an advisor's or a
-    checkpoint's new spec reaches the selector, and with its weights the workers."""
+    checkpoint's new spec reaches the selector, and with its weights the workers. ``rule``:
+    which scored candidate is executed (default: the best; the learner's candidate backup
+    should share it, :func:`~torchrl_auv.training.selection_rule_from_config`)."""
     if loss is not None and mode != "lyapunov":
         raise ValueError(
             f"loss (the owner of the Lyapunov spec) needs mode='lyapunov', got {mode!r}"
@@ -70,7 +73,7 @@ def make_selection_policy(
         critic, mode=mode, include_actor_action=actor is not None,
         candidates_key=(AGENTS, "proposer", "candidates"), observation_key=OBSERVATION,
         action_key=ACTION, actor_action_key=ACTOR_ACTION, critic_action_key=ACTION,
-        critic_out_key=critic_out_key,
+        critic_out_key=critic_out_key, rule=rule,
     )  # fmt: skip
     if loss is not None:
         loss.share_spec(selector)

@@ -52,13 +52,18 @@ def batch_metrics(data: TensorDictBase) -> dict[str, float]:
     over four initialisations in VES); and ``train/selected_extreme_<d>``, the share of
     AUV-decisions whose executed action is the largest or the smallest of the candidates in
     dimension ``d``: ``2 / K`` for an order-blind pick, more for a selection that favours the
-    candidates' extremes in whichever direction."""
+    candidates' extremes in whichever direction. With an anchored selection rule
+    (``("agents", "selector", "anchor")``), ``train/deviation_rate``: the share of
+    AUV-decisions that did not execute the anchor (the medoid)."""
     out = {"train/cost_mean": data["next", "agents", "cost"].mean().item()}
     index = data.get(("agents", "selector", "index"), None)
     if index is not None:
         slots = data["agents", "selector", "scores"].shape[-1]
         shares = torch.bincount(index.flatten(), minlength=slots).float() / index.numel()
         out.update({f"train/selected_rank_{i}": v for i, v in enumerate(shares.tolist())})
+        anchor = data.get(("agents", "selector", "anchor"), None)
+        if anchor is not None:  # an anchored rule: how often the critic overruled the medoid
+            out["train/deviation_rate"] = (index != anchor).float().mean().item()
     first = data.get(("agents", "proposer", "first_actions"), None)
     if first is not None:
         executed = data["agents", "action"].unsqueeze(-2)

@@ -1,0 +1,213 @@
+"""The executed policy's backup and the anchored selection: SelectionRule, the selector with
+an ensemble, CandidateBackupSACLoss's and LyapunovActorCriticLoss's targets by hand."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from tensordict import TensorDict
+from tensordict.nn import NormalParamExtractor, TensorDictModule
+from torch import nn
+from torchrl.modules import MLP, ProbabilisticActor, TanhNormal, ValueOperator
+
+from torchrl_auv.objectives import (
+    CandidateBackupSACLoss,
+    CandidateSelector,
+    LyapunovActorCriticLoss,
+    LyapunovSpec,
+    QEnsembleCritic,
+    SelectionRule,
+    lyapunov_value,
+)
+
+OBS, ACT, K = 3, 2, 4
+
+
+def _actor():
+    net = nn.Sequential(MLP(in_features=OBS, out_features=2 * ACT, num_cells=[16]),
+                        NormalParamExtractor())  # fmt: skip
+    return ProbabilisticActor(TensorDictModule(net, ["observation"], ["loc", "scale"]),
+                              in_keys=["loc", "scale"], distribution_class=TanhNormal,
+                              return_log_prob=True)  # fmt: skip
+
+
+class _CatLinear(nn.Linear):
+    """A linear critic of the concatenated observation and action."""
+
+    def forward(self, *inputs):
+        return super().forward(torch.cat(inputs, -1))
+
+
+def _critic(out_keys=None):
+    return ValueOperator(_CatLinear(OBS + ACT, 1), in_keys=["observation", "action"],
+                         out_keys=out_keys)  # fmt: skip
+
+
+def _batch(n=8, seed=0, terminated_rows=(0,)):
+    g = torch.Generator().manual_seed(seed)
+    terminated = torch.zeros(n, 1, dtype=torch.bool)
+    terminated[list(terminated_rows)] = True
+    return TensorDict(
+        {
+            "observation": torch.randn(n, OBS, generator=g),
+            "action": torch.rand(n, ACT, generator=g) * 2 - 1,
+            "next": {
+                "observation": torch.randn(n, OBS, generator=g),
+                "reward": -torch.rand(n, 1, generator=g),
+                "cost": torch.rand(n, 1, generator=g),
+                "done": terminated.clone(),
+                "terminated": terminated,
+                ("proposer", "first_actions"): torch.rand(n, K, ACT, generator=g) * 2 - 1,
+                ("proposer", "medoid"): torch.randint(0, K, (n,), generator=g),
+            },
+        },
+        batch_size=[n],
+    )
+
+
+def _linear(params, observation, action):
+    """A Linear critic's output by hand from its parameters (``module.weight/bias``)."""
+    weight, bias = params["module", "weight"], params["module", "bias"]
+    return torch.cat([observation, action], -1) @ weight.T + bias
+
+
+# -- SelectionRule -----------------------------------------------------------------------------
+def test_the_anchored_rule_deviates_only_where_the_best_dominates_the_anchor():
+    lower = torch.tensor([[1.0, 3.0, 2.0], [1.0, 3.0, 2.0], [1.0, 3.0, 2.0]])
+    upper = torch.tensor([[1.5, 3.5, 2.5], [1.5, 3.5, 3.2], [1.5, 3.5, 2.5]])
+    anchor = torch.tensor([0, 2, 2])
+    rule = SelectionRule(anchor="medoid")
+    # row 0: 3.0 > 1.5 deviates; row 1: 3.0 < 3.2 keeps the anchor; row 2: 3.0 > 2.5 deviates
+    assert rule.choose(lower, upper, anchor).tolist() == [1, 2, 1]
+    assert SelectionRule(anchor="medoid", margin=0.6).choose(lower, upper, anchor).tolist() == [
+        1, 2, 2,
+    ]  # fmt: skip
+    rule.deviate.fill_(False)  # the warm-up: always the anchor
+    assert rule.choose(lower, upper, anchor).tolist() == [0, 2, 2]
+    assert SelectionRule().choose(lower, upper).tolist() == [1, 1, 1]  # argmax of lower
+    with pytest.raises(ValueError, match="anchor_index"):
+        SelectionRule(anchor="medoid").choose(lower, upper)
+
+
+@pytest.mark.parametrize(("kwargs", "named"), [({"anchor": "mean"}, "anchor"),
+                                               ({"margin": -1.0}, "margin")])  # fmt: skip
+def test_a_bad_rule_names_the_argument(kwargs, named):
+    with pytest.raises(ValueError, match=named):
+        SelectionRule(**kwargs)
+
+
+# -- the selector with a Q ensemble and an anchor ------------------------------------------------
+class _Scaled(nn.Module):
+    """Q(s, a) = w * a_0: members differ in w only."""
+
+    def __init__(self):
+        super().__init__()
+        self.w = nn.Parameter(torch.ones(()))
+
+    def forward(self, observation, action):
+        return self.w * action[..., :1] + 0 * observation[..., :1]
+
+
+def _ensemble(weights):
+    net = TensorDictModule(_Scaled(), ["observation", "action"], ["state_action_value"])
+    params = TensorDict.from_module(net).expand(len(weights)).clone()
+    params["module", "w"] = torch.tensor(weights)
+    from tensordict import TensorDictParams
+
+    return QEnsembleCritic(net, TensorDictParams(params))
+
+
+def test_the_anchored_selector_keeps_the_medoid_unless_the_ensemble_agrees_on_a_better_one():
+    # 5 chunks: four close together around 0 (the medoid among them), one far out at 0.9
+    chunks = torch.zeros(1, 5, 2, 2)
+    chunks[0, :, :, 0] = torch.tensor([0.0, 0.05, -0.05, 0.02, 0.9])[:, None]
+    td = TensorDict({"observation": torch.zeros(1, 3), ("proposer", "candidates"): chunks}, [1])
+    rule = SelectionRule(anchor="medoid")
+    agree = CandidateSelector(_ensemble([1.0, 1.1]), mode="q", rule=rule)(td.clone())
+    assert agree["selector", "anchor"].item() == 3  # the medoid of the five chunks
+    assert agree["selector", "index"].item() == 4  # 0.9 * 1.0 > 0.02 * 1.1: dominates
+    # members that disagree in sign: the far candidate's pessimistic value is below the anchor's
+    disagree = CandidateSelector(_ensemble([1.0, -1.0]), mode="q", rule=rule)(td.clone())
+    assert disagree["selector", "index"].item() == 3
+    plain = CandidateSelector(_ensemble([1.0, -1.0]), mode="q")(td.clone())
+    assert ("selector", "anchor") not in plain.keys(True)
+    assert plain["selector", "index"].item() == plain["selector", "ranking"][0, 0].item()
+
+
+# -- CandidateBackupSACLoss ------------------------------------------------------------------------
+@pytest.mark.parametrize("anchor", [None, "medoid"])
+def test_the_sac_target_bootstraps_on_the_executed_candidate(anchor):
+    torch.manual_seed(0)
+    rule = SelectionRule(anchor=anchor)
+    loss = CandidateBackupSACLoss(_actor(), _critic(), backup="candidates", rule=rule,
+                                  target_entropy=-float(ACT))  # fmt: skip
+    loss.make_value_estimator(gamma=0.9)
+    with torch.no_grad():  # distinct target members
+        loss.target_qvalue_network_params["module", "weight"].normal_()
+    td = _batch()
+    nxt = td["next"]
+    cands = nxt["proposer", "first_actions"]
+    obs = nxt["observation"].unsqueeze(-2).expand(-1, K, -1)
+    members = torch.stack([_linear(loss.target_qvalue_network_params[i], obs, cands)[..., 0]
+                           for i in range(2)])  # fmt: skip
+    lower, upper = members.min(0).values, members.max(0).values
+    index = rule.choose(lower, upper, nxt["proposer", "medoid"])
+    bootstrap = lower.gather(-1, index[:, None])
+    expected = nxt["reward"] + 0.9 * (~nxt["terminated"]) * bootstrap
+    torch.testing.assert_close(loss._compute_target_v2(td), expected.squeeze(-1))
+    assert loss(td)["loss_qvalue"].isfinite()
+
+
+def test_the_actor_backup_is_torchrls_sac_target():
+    from torchrl.objectives import SACLoss
+
+    torch.manual_seed(0)
+    ours = CandidateBackupSACLoss(_actor(), _critic(), target_entropy=-float(ACT))
+    torch.manual_seed(0)
+    theirs = SACLoss(_actor(), _critic(), target_entropy=-float(ACT))
+    td = _batch()
+    torch.manual_seed(1)
+    a = ours._compute_target_v2(td)
+    torch.manual_seed(1)
+    torch.testing.assert_close(a, theirs._compute_target_v2(td))
+
+
+def test_a_candidate_backup_without_stored_candidates_says_what_to_store():
+    loss = CandidateBackupSACLoss(_actor(), _critic(), backup="candidates",
+                                  target_entropy=-float(ACT))  # fmt: skip
+    td = _batch()
+    del td["next", "proposer"]
+    with pytest.raises(ValueError, match="with_next_candidates"):
+        loss(td)
+    with pytest.raises(ValueError, match="backup"):
+        CandidateBackupSACLoss(_actor(), _critic(), backup="policy")
+
+
+# -- LyapunovActorCriticLoss -------------------------------------------------------------------
+def test_both_lac_critics_bootstrap_on_the_candidate_argmin_l_executes():
+    torch.manual_seed(0)
+    rule = SelectionRule(anchor="medoid")
+    q = _critic(out_keys=["task_q"])
+    loss = LyapunovActorCriticLoss(_actor(), _critic(), qvalue_network=q, form="softplus",
+                                   backup="candidates", rule=rule)  # fmt: skip
+    loss.set_keys(qvalue="task_q", task_cost="cost")
+    loss.make_value_estimator(gamma=0.9)
+    td = _batch()
+    nxt = td["next"]
+    cands = nxt["proposer", "first_actions"]
+    obs = nxt["observation"].unsqueeze(-2).expand(-1, K, -1)
+    spec = LyapunovSpec(form="softplus")
+    values = lyapunov_value(_linear(loss.target_lyapunov_network_params, obs, cands), spec)
+    index = rule.choose(-values[..., 0], -values[..., 0], nxt["proposer", "medoid"])
+    chosen = cands[torch.arange(len(index)), index]
+    continues = (~nxt["terminated"]).float()
+    l_target = nxt["cost"] + 0.9 * continues * values[torch.arange(len(index)), index]
+    q_target = nxt["cost"] + 0.9 * continues * _linear(loss.target_qvalue_network_params,
+                                                       nxt["observation"], chosen)  # fmt: skip
+    l_now = lyapunov_value(_linear(loss.lyapunov_network_params, td["observation"],
+                                   td["action"]), spec)  # fmt: skip
+    q_now = _linear(loss.qvalue_network_params, td["observation"], td["action"])
+    out = loss(td)
+    torch.testing.assert_close(out["loss_lyapunov"], 0.5 * (l_now - l_target).square().mean())
+    torch.testing.assert_close(out["loss_qvalue"], 0.5 * (q_now - q_target).square().mean())
+    assert ("next", "proposer", "medoid") in loss.in_keys

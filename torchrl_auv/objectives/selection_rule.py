@@ -1,0 +1,98 @@
+r"""``SelectionRule``: which of K scored candidates is executed, shared by the acting selector
+and the critics' backup so that both mean the same policy.
+
+Two rules (``anchor``):
+
+- ``None``: the best candidate, :math:`\arg\max_k \underline s_k` (the pessimistic score: the
+  minimum over a critic ensemble, or the one critic's score).
+- ``"medoid"``: a safe improvement on the prior. The prior's own choice, the medoid of its
+  candidates (:func:`~torchrl_auv.modules.medoid_index`), is executed unless the best
+  candidate's pessimistic score beats the medoid's optimistic one by more than ``margin``:
+
+  .. math::
+
+      k^* = \arg\max_k \underline s_k,\qquad
+      \text{execute } k^* \text{ if } \underline s_{k^*} - m > \overline s_{\text{medoid}},
+      \text{ else the medoid,}
+
+  with :math:`\underline s, \overline s` the minimum and maximum over the critic ensemble
+  (interval dominance: the critic deviates only where its advantage exceeds its own
+  disagreement). With one critic :math:`\underline s = \overline s` and only ``margin``
+  protects the medoid.
+
+The buffer ``deviate`` (``True`` by default) switches deviation off altogether: while it is
+``False`` the rule executes the anchor (a warm-up in which the critics learn the prior's
+values before they choose). As a buffer it travels with the weights a collector copies to its
+workers.
+
+Examples:
+    >>> rule = SelectionRule(anchor="medoid")
+    >>> lower = torch.tensor([[0.0, 2.0, 1.0]])
+    >>> upper = torch.tensor([[0.5, 3.0, 1.2]])
+    >>> rule.choose(lower, upper, anchor_index=torch.tensor([2])).tolist()  # 2.0 > 1.2
+    [1]
+    >>> rule.choose(lower, upper, anchor_index=torch.tensor([0])).tolist()  # 2.0 > 0.5
+    [1]
+    >>> SelectionRule(anchor="medoid", margin=1.0).choose(lower, upper, torch.tensor([2])).tolist()
+    [2]
+    >>> SelectionRule().choose(lower, upper).tolist()
+    [1]
+"""
+
+from __future__ import annotations
+
+import torch
+
+__all__ = ["ANCHORS", "SelectionRule"]
+
+#: ``anchor`` values: ``None`` (argmax) or ``"medoid"`` (the prior's consensus candidate)
+ANCHORS = (None, "medoid")
+
+
+class SelectionRule(torch.nn.Module):
+    """The executed candidate's index from pessimistic and optimistic scores (module docstring).
+
+    Args:
+        anchor: ``None`` (the best pessimistic score) or ``"medoid"``.
+        margin: how much (in the critic's score units, >= 0) the best candidate's pessimistic
+            score must exceed the anchor's optimistic score before the rule deviates.
+    """
+
+    def __init__(self, anchor: str | None = None, margin: float = 0.0) -> None:
+        super().__init__()
+        if anchor not in ANCHORS:
+            raise ValueError(f"anchor must be one of {ANCHORS}, got {anchor!r}")
+        if not margin >= 0:
+            raise ValueError(f"margin must be >= 0, got {margin}")
+        self.anchor, self.margin = anchor, float(margin)
+        self.register_buffer("deviate", torch.tensor(True))
+
+    @property
+    def anchored(self) -> bool:
+        return self.anchor is not None
+
+    def choose(
+        self,
+        lower: torch.Tensor,
+        upper: torch.Tensor | None = None,
+        anchor_index: torch.Tensor | None = None,
+    ) -> torch.Tensor:
+        """The executed index ``[*B]`` (int64) of scores ``[*B, K]`` (higher is better).
+
+        ``upper`` defaults to ``lower`` (one critic); ``anchor_index`` ``[*B]`` is required
+        by an anchored rule, and ignored otherwise.
+        """
+        best = lower.argmax(-1)
+        if not self.anchored:
+            return best
+        if anchor_index is None:
+            raise ValueError(f"an anchored rule (anchor={self.anchor!r}) needs anchor_index")
+        upper = lower if upper is None else upper
+        anchor_index = anchor_index.to(best.device)
+        best_lower = lower.gather(-1, best.unsqueeze(-1)).squeeze(-1)
+        anchor_upper = upper.gather(-1, anchor_index.unsqueeze(-1)).squeeze(-1)
+        deviates = self.deviate & (best_lower - self.margin > anchor_upper)
+        return torch.where(deviates, best, anchor_index)
+
+    def extra_repr(self) -> str:
+        return f"anchor={self.anchor!r}, margin={self.margin:g}"
