@@ -28,6 +28,9 @@ def main(cfg: DictConfig) -> None:
     learner = training.sac_from_config(cfg, env, actor)
     buffer = training.buffer_from_config(cfg, run.dir)
     remaining = run.restore(learner.checkpoint_modules(), buffer)  # resume: the newest
+    # the update's batches: the online buffer, or half of each from the scripted expert's
+    # demonstrations (demonstrations.frames > 0: RLPD's symmetric sampling)
+    sample, demonstration_frames = training.sampler_from_config(cfg, buffer)
 
     # collector: the frames still to go, random actions first
     random_frames = max(0, cfg.collector.init_random_frames - run.progress.frames)
@@ -43,7 +46,7 @@ def main(cfg: DictConfig) -> None:
         metrics = {}
         if run.progress.frames >= cfg.collector.init_random_frames:
             for _ in range(cfg.optim.updates_per_batch):
-                out = learner.step(buffer.sample().to(cfg.device))
+                out = learner.step(sample().to(cfg.device))
                 run.progress.updates += 1
             metrics = learner.metrics(out)
             collector.update_policy_weights_()  # worker processes / Ray act with the new weights
@@ -52,6 +55,7 @@ def main(cfg: DictConfig) -> None:
 
     # evaluation on held-out seeds: the trained actor next to the expert and random actions
     facts["bytes per stored frame"] = stored_bytes or 0
+    facts["demonstration frames"] = demonstration_frames
     policies = {"sac": actor, **training.reference_policies()}
     print(run.evaluate(policies, title="SAC on data collection", facts=facts).read_text())
 

@@ -1,24 +1,25 @@
 """What the training recipes share and users import, one file per thing a recipe builds.
 
-================  ==========================================================================
-module            builds
-================  ==========================================================================
-``env``           the run's envs from ``cfg.env``: training scenes, worker factories,
-                  held-out evaluation scenes (``env.history``: the proposer's history)
-``networks``      per-AUV actor, Q critic, Lyapunov critic (weights shared by the AUVs)
-``sac``           SAC's learner: ``SACLoss``, target updater, optimisers, logged keys
-``lac``           LAC's learner: ``LyapunovActorCriticLoss``, target updater, optimisers
-``learner``       :class:`Learner`, what one gradient step touches
-``first_stage``   the pretrained proposer (cached artefact per first-stage values)
-``selection``     the proposer + selector policy, ranked candidates, the evaluation rows
-``candidates``    the selection rule of ``cfg.selection``, the next state's candidates the
-                  critics' candidate backup reads
-``replay``        the replay buffer and what it stores of a frame
-``collectors``    TorchRL collectors: local, worker processes, Ray
-``run``           :class:`Run`: folder, logger, checkpoint, counters, final evaluation
-``tracking``      the loop's bookkeeping: metrics, progress bar, learning curve
-``evaluation``    held-out evaluation of policies (the task's metrics)
-================  ==========================================================================
+==========================  ========================================================================
+module                      builds
+==========================  ========================================================================
+``env``                     the run's envs from ``cfg.env``: training scenes, worker factories,
+                            held-out evaluation scenes (``env.history``: the proposer's history)
+``networks``                per-AUV actor, Q critic, Lyapunov critic (weights shared by the AUVs)
+``sac``                     SAC's learner: ``SACLoss``, target updater, optimisers, logged keys
+``lac``                     LAC's learner: ``LyapunovActorCriticLoss``, target updater, optimisers
+``learner``                 :class:`Learner`, what one gradient step touches
+``first_stage``             the pretrained proposer (cached artefact per first-stage values)
+``selection``               the proposer + selector policy, ranked candidates, the evaluation rows
+``candidates``              the selection rule of ``cfg.selection``, the next state's candidates the
+                            critics' candidate backup reads
+``replay``                  the replay buffer and what it stores of a frame
+``demonstration_replay``    SAC's expert demonstrations, half of each batch (RLPD)
+``collectors``              TorchRL collectors: local, worker processes, Ray
+``run``                     :class:`Run`: folder, logger, checkpoint, counters, final evaluation
+``tracking``                the loop's bookkeeping: metrics, progress bar, learning curve
+``evaluation``              held-out evaluation of policies (the task's metrics)
+==========================  ========================================================================
 
 ``recipes/<name>/train.py`` are short scripts composed from these pieces (the loop written
 out, as in TorchRL's sota-implementations); copy one and swap a piece to build your own.
@@ -52,6 +53,13 @@ from torchrl_auv.training.collectors import (
     make_collector,
 )
 from torchrl_auv.training.config import check_choices, check_config, check_endpoint
+from torchrl_auv.training.demonstration_replay import (
+    DEMONSTRATION_SEED_OFFSET,
+    collect_demonstrations,
+    demonstration_frames,
+    sampler_from_config,
+    symmetric_sampler,
+)
 from torchrl_auv.training.env import (
     env_factory,
     env_from_config,
@@ -153,6 +161,7 @@ __all__ = [
     "CANDIDATES",
     "CANDIDATE_KEYS",
     "COLLECTOR_BACKENDS",
+    "DEMONSTRATION_SEED_OFFSET",
     "EPISODE_METRICS",
     "FIRST_STAGE_VERSION",
     "LAC_LOGGED_KEYS",
@@ -193,8 +202,10 @@ __all__ = [
     "check_selection",
     "checkpoint_problems",
     "close_logger",
+    "collect_demonstrations",
     "collector_from_config",
     "configure_threads",
+    "demonstration_frames",
     "env_factory",
     "env_from_config",
     "env_history",
@@ -238,12 +249,14 @@ __all__ = [
     "resume_latest",
     "sac_from_config",
     "sac_optimisers",
+    "sampler_from_config",
     "seed_everything",
     "select_for_replay",
     "selection_backup",
     "selection_rule_from_config",
     "start_deviating",
     "start_run",
+    "symmetric_sampler",
     "truncate_curve",
     "values_key",
     "with_next_candidates",

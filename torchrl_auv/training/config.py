@@ -50,6 +50,9 @@ POSITIVE_INTEGERS = (
     "eval.curve_steps",
 )
 
+#: counts that may be zero
+NON_NEGATIVE_INTEGERS = ("demonstrations.frames", "collector.init_random_frames")
+
 
 def _choices() -> dict[str, tuple[str, ...]]:
     return {
@@ -98,6 +101,11 @@ def check_choices(cfg: Mapping) -> None:
         value = _get(cfg, key)
         if value is not None and (not isinstance(value, int) or value < 1):
             raise ValueError(f"{key} must be an integer >= 1, got {value!r}")
+    for key in NON_NEGATIVE_INTEGERS:
+        value = _get(cfg, key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)
+                                  or value < 0):  # fmt: skip
+            raise ValueError(f"{key} must be an integer >= 0, got {value!r}")
     selection = _get(cfg, "selection")
     if isinstance(selection, Mapping):
         check_selection(selection)
