@@ -51,6 +51,7 @@ def test_step_response_settles_with_bounded_overshoot(name):
     assert (z.max() - 12.0).item() < over_z_max
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_all_controllers_stay_bounded_for_300_s_in_very_extreme_sea():
     """Sanity / regression bounds, not from the spec or the paper. Measured maxima over the
     three controllers: body speed 3.53 m/s (vehicle plus the 1 m/s 'ves' current and wave

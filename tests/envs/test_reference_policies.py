@@ -70,6 +70,7 @@ def test_bad_arguments_are_errors_naming_them(make, error):
         make(DataCollectionEnv(batch_size=[1], seed=0))
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_serving_nothing_costs_at_least_twice_the_experts_cost():
     """Task v3's promise, on scenes no weight was chosen on: an AUV that never delivers pays
     at least twice what the expert pays per AUV-decision, and more discounted at 0.99."""

@@ -44,6 +44,7 @@ def expected_updates(frames: int, batch: int, random_frames: int = 1000) -> int:
     return sum(batch for k in range(1, frames // batch + 1) if k * batch >= random_frames)
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_the_loop_runs_on_both_envs():
     pend, track = run_all([
         ("--env", "pendulum", "--loss", "lac", "--frames", "1500"),

@@ -22,6 +22,7 @@ def _mean_cost(env, policy, steps: int, seed: int) -> float:
     return env.rollout(steps, policy, break_when_any_done=False)["next", "cost"].mean().item()
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_briefly_trained_proposer_closes_most_of_the_gap_from_random_to_the_expert():
     """1,600 demonstration samples, 1,500 Adam steps; 100 held-out decisions in 8 scenes.
     Measured: cost per decision random 1.31, proposer 0.44, expert 0.36 (92 % of the gap

@@ -64,6 +64,7 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
     assert (run_dir / "train_curve.csv").exists()
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
     run_dir = tmp_path / "run"
     result = _run("diffusion_lac", run_dir, *RL_TINY, "advisor.cooldown=0")
@@ -82,6 +83,7 @@ def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
         assert (run_dir / name).stat().st_mtime_ns <= mark, name
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_every_recipe_with_the_same_values_reuses_one_first_stage(tmp_path):
     """diffusion builds the first stage, diffusion_rl with the same values reuses it (other
     acting values included), other values build their own; proposer.path reuses a file and

@@ -12,6 +12,7 @@ is checked by the slow test and the sweep, not here); no episode ended early.
 
 from __future__ import annotations
 
+import pytest
 import torch
 from omegaconf import OmegaConf
 
@@ -26,6 +27,7 @@ from torchrl_auv.training import (
 STEPS = 300  # decisions per evaluation episode
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_reduced_first_stage_imitates_the_expert_in_ideal(tmp_path):
     cfg = OmegaConf.create({
         "seed": 0,

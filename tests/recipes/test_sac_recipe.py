@@ -76,6 +76,7 @@ def test_an_unknown_value_fails_before_any_work_naming_it(tmp_path, override, na
     assert not (tmp_path / "run").exists()  # no half-made folder (Hydra's is removed)
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_run_killed_with_sigkill_resumes_from_its_latest_checkpoint(tmp_path):
     run_dir = tmp_path / "run"
     command = _command(run_dir, "collector.total_frames=1000", "checkpoint.every_frames=200",

@@ -38,10 +38,12 @@ def _check(run_dir: Path) -> None:
     assert all(float(r["decisions"]) == 20.0 for r in rows)
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_run_with_two_worker_processes(tmp_path):
     _check(_train(tmp_path, "collector.num_workers=2"))
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_run_whose_collection_uses_two_ray_remote_collectors(
     tmp_path, skip_if_ray_started_too_slowly
 ):

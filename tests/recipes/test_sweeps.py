@@ -170,6 +170,7 @@ def test_the_tiny_sweep_runs_four_jobs_locally_and_aggregates(tmp_path):
     _check_tiny_sweep(tmp_path, _sweep(tmp_path))
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_sweep_runs_on_hydras_ray_launcher_and_aggregates(tmp_path):
     pytest.importorskip("hydra_plugins.hydra_ray_launcher")
     result = _sweep(tmp_path, "framework=sac,diffusion", "seed=0", "hydra/launcher=ray",

@@ -27,6 +27,7 @@ def _exit_is_dearer_than_the_expert(preset: str, scenes: int, expert_steps: int)
         assert exit_stats[f"discounted_cost_{gamma}"] > expert_bound, (preset, gamma)
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_leaving_costs_more_than_the_expert_in_very_extreme_seas():
     _exit_is_dearer_than_the_expert("ves", scenes=2, expert_steps=300)
 

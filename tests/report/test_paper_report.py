@@ -311,6 +311,7 @@ def test_a_partial_last_bin_is_named_by_the_jobs_last_frame(tmp_path):
     assert [(r["frames"], r["value"]) for r in rows] == [(5000, 3.0), (7000, 6.5)]
 
 
+@pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_the_papers_rate_formula_inflates_the_experts_data(tmp_path):
     """The rate-model table: the same expert on the same scenes delivers more data with the
     paper's formula (10^SNR instead of 10^(SNR/10)) than with the Shannon rate."""

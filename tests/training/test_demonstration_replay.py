@@ -39,7 +39,7 @@ def test_the_demonstrations_are_the_experts_on_their_own_scenes():
         "replay_buffer": {"batch_size": 4},
     })  # fmt: skip
     online = training.make_replay_buffer(100, batch_size=4)
-    sample, frames = training.sampler_from_config(cfg, online)
+    _, frames = training.sampler_from_config(cfg, online)
     assert frames == 12  # two collected batches of 6 cover the 10 asked for
     scenes = training.env_factory(cfg)(seed=3 + training.DEMONSTRATION_SEED_OFFSET)
     expert = training.expert_policy(scenes)
@@ -50,7 +50,7 @@ def test_the_demonstrations_are_the_experts_on_their_own_scenes():
 
 
 def test_a_bad_demonstration_count_is_named_before_any_work():
-    with pytest.raises(ValueError, match="demonstrations.frames"):
+    with pytest.raises(ValueError, match=r"demonstrations\.frames"):
         training.check_choices({"demonstrations": {"frames": -5}})
-    with pytest.raises(ValueError, match="demonstrations.frames"):
+    with pytest.raises(ValueError, match=r"demonstrations\.frames"):
         training.demonstration_frames({"demonstrations": {"frames": 2.5}})
