@@ -88,7 +88,8 @@ class CandidateBackupSACLoss(SACLoss):
     ``backup="actor"`` is ``SACLoss`` itself.
 
     Args:
-        *args, **kwargs: ``SACLoss``'s.
+        *args: ``SACLoss``'s positional arguments.
+        **kwargs: ``SACLoss``'s keyword arguments.
         backup: one of :data:`BACKUPS`.
         rule: the :class:`~torchrl_auv.objectives.SelectionRule` the selector acts with
             (kept by reference: its ``deviate`` switch reaches the target; default argmax).
