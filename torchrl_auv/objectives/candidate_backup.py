@@ -64,21 +64,26 @@ def per_candidate(td: TensorDictBase, keys: Iterable[NestedKey], k: int) -> Tens
     return TensorDict(out, batch_size=[])
 
 
-def next_candidates(next_td: TensorDictBase, candidates_key: NestedKey, anchor_key: NestedKey,
-                    rule: SelectionRule) -> tuple[torch.Tensor, torch.Tensor | None]:  # fmt: skip
+def next_candidates(
+    next_td: TensorDictBase, candidates_key: NestedKey, anchor_key: NestedKey, rule: SelectionRule
+) -> tuple[torch.Tensor, torch.Tensor | None]:
     """The next state's candidate first actions ``[..., K, A]`` and, for an anchored ``rule``,
     the anchor's index ``[...]``; a ``ValueError`` naming the key the data lack."""
     candidates = next_td.get(candidates_key, None)
     if candidates is None:
-        raise ValueError(f"backup='candidates' reads the next state's candidates from "
-                         f"('next', {candidates_key!r}), which the data lack: store them "
-                         "(torchrl_auv.training.with_next_candidates)")  # fmt: skip
+        raise ValueError(
+            f"backup='candidates' reads the next state's candidates from "
+            f"('next', {candidates_key!r}), which the data lack: store them "
+            "(torchrl_auv.training.with_next_candidates)"
+        )
     anchor = None
     if rule.anchored:
         anchor = next_td.get(anchor_key, None)
         if anchor is None:
-            raise ValueError(f"an anchored rule reads the next state's anchor from "
-                             f"('next', {anchor_key!r}), which the data lack")  # fmt: skip
+            raise ValueError(
+                f"an anchored rule reads the next state's anchor from "
+                f"('next', {anchor_key!r}), which the data lack"
+            )
     return candidates, anchor
 
 
@@ -124,8 +129,9 @@ class CandidateBackupSACLoss(SACLoss):
 
     default_keys = _AcceptedKeys
 
-    def __init__(self, *args, backup: str = "actor", rule: SelectionRule | None = None,
-                 **kwargs) -> None:  # fmt: skip
+    def __init__(
+        self, *args, backup: str = "actor", rule: SelectionRule | None = None, **kwargs
+    ) -> None:
         check_backup(backup)
         super().__init__(*args, **kwargs)
         self.backup = backup
@@ -138,8 +144,9 @@ class CandidateBackupSACLoss(SACLoss):
         tensordict = tensordict.clone(False)
         with torch.no_grad():
             next_td = tensordict.get("next")
-            candidates, anchor = next_candidates(next_td, self.tensor_keys.candidates,
-                                                 self.tensor_keys.anchor, self.rule)  # fmt: skip
+            candidates, anchor = next_candidates(
+                next_td, self.tensor_keys.candidates, self.tensor_keys.anchor, self.rule
+            )
             action_key = self.tensor_keys.action
             inputs = [key for key in self.qvalue_network.in_keys if key != action_key]
             td = per_candidate(next_td, inputs, candidates.shape[-2])

@@ -73,8 +73,10 @@ def check_selection(selection: Mapping) -> None:
     if isinstance(warmup, bool) or not isinstance(warmup, int) or warmup < 0:
         raise ValueError(f"selection.warmup_frames must be an integer >= 0, got {warmup!r}")
     if warmup and anchor is None:
-        raise ValueError("selection.warmup_frames > 0 executes the anchor while the critics "
-                         "warm up: it needs selection.anchor=medoid")  # fmt: skip
+        raise ValueError(
+            "selection.warmup_frames > 0 executes the anchor while the critics "
+            "warm up: it needs selection.anchor=medoid"
+        )
 
 
 def selection_rule_from_config(cfg: Mapping) -> SelectionRule:
@@ -106,8 +108,10 @@ def with_next_candidates(data: TensorDictBase, proposer: DiffusionProposer) -> T
     Returns ``data``, written in place."""
     candidates = data.get(CANDIDATES, None)
     if candidates is None:
-        raise ValueError(f"data lack the proposer's candidates {CANDIDATES!r}: collect with a "
-                         "policy whose proposer writes them (make_selection_policy)")  # fmt: skip
+        raise ValueError(
+            f"data lack the proposer's candidates {CANDIDATES!r}: collect with a "
+            "policy whose proposer writes them (make_selection_policy)"
+        )
     first, medoid = candidates[..., 0, :], medoid_index(candidates)
     time = data.ndim - 1
     next_first, next_medoid = first.roll(-1, time), medoid.roll(-1, time)

@@ -60,21 +60,26 @@ def collect_demonstrations(cfg: Mapping, frames: int) -> TensorDictBase:
     (:func:`~torchrl_auv.training.select_for_replay`), ``[frames']`` with ``frames'`` the
     collector's batches covering ``frames``."""
     env = env_factory(cfg)(seed=cfg["seed"] + DEMONSTRATION_SEED_OFFSET)
-    collector = make_collector(env, expert_policy(env), frames_per_batch=cfg["collector"][
-        "frames_per_batch"], total_frames=frames, device=cfg["device"])  # fmt: skip
+    batch = cfg["collector"]["frames_per_batch"]
+    collector = make_collector(
+        env, expert_policy(env), frames_per_batch=batch, total_frames=frames, device=cfg["device"]
+    )
     try:
         return torch.cat([select_for_replay(data) for data in collector])
     finally:
         collector.shutdown()
 
 
-def symmetric_sampler(online: TensorDictReplayBuffer, demonstrations: TensorDictBase, *,
-                      batch_size: int) -> Callable[[], TensorDictBase]:  # fmt: skip
+def symmetric_sampler(
+    online: TensorDictReplayBuffer, demonstrations: TensorDictBase, *, batch_size: int
+) -> Callable[[], TensorDictBase]:
     """A function returning batches of ``batch_size`` frames, half from ``online`` and half
     from ``demonstrations`` (uniform within each; ``batch_size`` even)."""
     if batch_size % 2:
-        raise ValueError(f"replay_buffer.batch_size must be even to sample half of it from the "
-                         f"demonstrations, got {batch_size}")  # fmt: skip
+        raise ValueError(
+            f"replay_buffer.batch_size must be even to sample half of it from the "
+            f"demonstrations, got {batch_size}"
+        )
     demos = TensorDictReplayBuffer(storage=LazyTensorStorage(len(demonstrations)))
     demos.extend(demonstrations)
     both = ReplayBufferEnsemble(online, demos, sample_from_all=True, batch_size=batch_size)
@@ -85,8 +90,9 @@ def symmetric_sampler(online: TensorDictReplayBuffer, demonstrations: TensorDict
     return sample
 
 
-def sampler_from_config(cfg: Mapping, online: TensorDictReplayBuffer
-                        ) -> tuple[Callable[[], TensorDictBase], int]:  # fmt: skip
+def sampler_from_config(
+    cfg: Mapping, online: TensorDictReplayBuffer
+) -> tuple[Callable[[], TensorDictBase], int]:
     """The update's batch source of a SAC config and the demonstration frames it holds:
     ``online.sample`` without demonstrations, else :func:`symmetric_sampler` over the
     expert frames :func:`collect_demonstrations` gathers."""
