@@ -38,7 +38,10 @@ def main(cfg: DictConfig) -> None:
     #    the live critic through the spec the loss owns), the advisor loop
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
-    critic = training.make_lyapunov_critic(env, cfg.network.hidden).to(cfg.device)
+    critic = training.make_lyapunov_critic(
+        env, cfg.network.hidden, layer_norm=training.critic_layer_norm(cfg)
+    )
+    critic = critic.to(cfg.device)
     #    the rule (argmin, or anchored on the medoid) is shared by the selector and the
     #    critics' backup (selection.backup=candidates: on the next state's candidates)
     rule = training.selection_rule_from_config(cfg)

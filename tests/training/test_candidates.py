@@ -10,6 +10,7 @@ from omegaconf import OmegaConf
 from torchrl_auv import training
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.modules.consensus import medoid_index
+from torchrl_auv.objectives import QEnsembleCritic
 
 
 @pytest.fixture(scope="module")
@@ -88,3 +89,26 @@ def test_both_learners_step_on_the_frames_the_buffer_stores(collected):
 def test_a_bad_selection_value_is_named_before_any_work(selection, named):
     with pytest.raises(ValueError, match=named):
         training.check_choices({"selection": {"include_actor": False, **selection}})
+
+
+def test_the_network_keys_size_the_q_ensemble_and_norm_the_critics(collected):
+    env, proposer, _, rule, data = collected
+    data = training.with_next_candidates(data.clone(), proposer)
+    frames = training.select_for_replay(data, training.CANDIDATE_KEYS)
+    cfg = OmegaConf.create({
+        "optim": {"gamma": 0.99, "loss_function": "l2", "actor_lr": 1e-3, "critic_lr": 1e-3,
+                  "alpha_lr": 1e-3, "alpha_init": 1.0, "tau": 0.005},
+        "network": {"hidden": [16, 8], "critics": 5, "layer_norm": True}, "device": "cpu",
+        "selection": {"backup": "candidates", "anchor": "medoid"},
+    })  # fmt: skip
+    sac = training.sac_from_config(cfg, env, training.make_actor(env, (16,)), rule=rule)
+    scores = QEnsembleCritic.from_loss(sac.loss).members(frames[:4])
+    assert scores.shape[0] == 5 and not torch.allclose(scores[0], scores[1])
+    norms = [m for m in sac.loss.qvalue_network.modules() if isinstance(m, torch.nn.LayerNorm)]
+    assert [m.normalized_shape for m in norms] == [(16,), (8,)]
+    assert sac.step(frames[:8])["loss_qvalue"].isfinite()
+    cfg.network.layer_norm = False
+    cfg.network.pop("critics")  # absent: SAC's twin
+    plain = training.sac_from_config(cfg, env, training.make_actor(env, (16,)), rule=rule)
+    assert QEnsembleCritic.from_loss(plain.loss).members(frames[:4]).shape[0] == 2
+    assert not any(isinstance(m, torch.nn.LayerNorm) for m in plain.loss.qvalue_network.modules())

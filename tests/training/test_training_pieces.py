@@ -30,7 +30,9 @@ from torchrl_auv.objectives import LyapunovSpec
      ({"optim": {"loss_function": "l1"}}, "optim.loss_function"),
      ({"lyapunov": {"cost": "energy"}}, "lyapunov.cost"),
      ({"logger": {"backend": "wandbb"}}, "logger.backend"),
-     ({"optim": {"updates_per_batch": 0}}, "optim.updates_per_batch")],
+     ({"optim": {"updates_per_batch": 0}}, "optim.updates_per_batch"),
+     ({"network": {"critics": 0}}, "network.critics"),
+     ({"network": {"layer_norm": "yes"}}, "network.layer_norm")],
 )  # fmt: skip
 def test_check_choices_names_the_key(cfg, named):
     with pytest.raises(ValueError, match=named.replace(".", r"\.")):

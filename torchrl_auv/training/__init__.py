@@ -115,6 +115,7 @@ from torchrl_auv.training.loggers import (
 )
 from torchrl_auv.training.networks import (
     ObsActionMLP,
+    critic_layer_norm,
     make_actor,
     make_lyapunov_critic,
     make_q_critic,
@@ -205,6 +206,7 @@ __all__ = [
     "collect_demonstrations",
     "collector_from_config",
     "configure_threads",
+    "critic_layer_norm",
     "demonstration_frames",
     "env_factory",
     "env_from_config",

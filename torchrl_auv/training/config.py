@@ -48,6 +48,7 @@ POSITIVE_INTEGERS = (
     "eval.workers",
     "eval.curve_envs",
     "eval.curve_steps",
+    "network.critics",
 )
 
 #: counts that may be zero
@@ -73,6 +74,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "eval.curve_background": (True, False),
         "optim.loss_function": ("l2", "smooth_l1"),
         "optim.compile": (True, False),
+        "network.layer_norm": (True, False),
         "lyapunov.cost": ("task", "stability"),
     }
 

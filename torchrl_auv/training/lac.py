@@ -28,7 +28,11 @@ from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.checkpointing import SpecState
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
 from torchrl_auv.training.learner import Learner
-from torchrl_auv.training.networks import make_q_critic, observation_action_dims
+from torchrl_auv.training.networks import (
+    critic_layer_norm,
+    make_q_critic,
+    observation_action_dims,
+)
 
 __all__ = [
     "LAC_LOGGED_KEYS",
@@ -62,6 +66,7 @@ def make_lac_loss(
     loss_function: str = "l2",
     cost: str = "task",
     hidden: Sequence[int] = (256, 256),
+    layer_norm: bool = False,
     backup: str = "actor",
     rule: SelectionRule | None = None,
 ) -> LyapunovActorCriticLoss:
@@ -72,12 +77,13 @@ def make_lac_loss(
     ``("agents", "cost")`` and the actor minimises it through L alone; ``"stability"``: the
     Lyapunov critic learns ``("agents", "stability_cost")`` (0 in service) and carries the
     constraint, while a task Q critic (:func:`~torchrl_auv.training.make_q_critic` with
-    ``hidden``) learns ``("agents", "cost")`` and gives the actor the task. The loss (the
-    task critic and the dual variables too) is on the actor's device. ``backup`` and ``rule``:
-    what both critics bootstrap on (the loss's arguments of those names)."""
+    ``hidden`` and ``layer_norm``) learns ``("agents", "cost")`` and gives the actor the task.
+    The loss (the task critic and the dual variables too) is on the actor's device.
+    ``backup`` and ``rule``: what both critics bootstrap on (the loss's arguments of those
+    names)."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
-    qvalue = make_q_critic(env, hidden) if cost == "stability" else None
+    qvalue = make_q_critic(env, hidden, layer_norm) if cost == "stability" else None
     loss = LyapunovActorCriticLoss(
         actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
         target_entropy=-float(observation_action_dims(env)[1]), loss_function=loss_function,
@@ -136,14 +142,16 @@ def lac_from_config(
     loss's first forward, as TorchRL requires); :func:`lac_optimisers`; logging
     :data:`LAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent: ``False``) compiles the update
     (:class:`~torchrl_auv.training.Learner`). ``critic`` is the Lyapunov critic the selector
-    ranks with too; ``cfg.selection.backup`` (absent: ``actor``) with the selector's ``rule``
-    is what the critics bootstrap on."""
+    ranks with too (the task critic takes ``cfg.network.layer_norm``, absent: off);
+    ``cfg.selection.backup`` (absent: ``actor``) with the selector's ``rule`` is what the
+    critics bootstrap on."""
     optim, advisor = cfg["optim"], cfg["advisor"]
     loss = make_lac_loss(actor, critic, env, gamma=optim["gamma"], form=advisor["form"],
                          stability_weight=advisor["stability_weight"],
                          lambda_max=optim["lambda_max"], loss_function=optim["loss_function"],
                          cost=cfg["lyapunov"]["cost"], hidden=cfg["network"]["hidden"],
-                         backup=selection_backup(cfg), rule=rule)  # fmt: skip
+                         layer_norm=critic_layer_norm(cfg), backup=selection_backup(cfg),
+                         rule=rule)  # fmt: skip
     target_updater = SoftUpdate(loss, tau=optim["tau"])
     return Learner(
         loss,

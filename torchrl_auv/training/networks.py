@@ -13,7 +13,7 @@ Examples:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import torch
 from tensordict.nn import NormalParamExtractor, TensorDictModule
@@ -25,6 +25,7 @@ from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION,
 
 __all__ = [
     "ObsActionMLP",
+    "critic_layer_norm",
     "make_actor",
     "make_lyapunov_critic",
     "make_q_critic",
@@ -64,32 +65,49 @@ def make_actor(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) -> Pr
 
 
 class ObsActionMLP(nn.Module):
-    """An MLP of the concatenated observation and action (a critic's body), one output."""
+    """An MLP of the concatenated observation and action (a critic's body), one output.
 
-    def __init__(self, in_features: int, hidden: Sequence[int]) -> None:
+    ``layer_norm=True`` puts a ``LayerNorm`` after each hidden layer's linear map, before its
+    ReLU (the critics of RLPD, Ball et al. 2023: it bounds the Q extrapolation off the data).
+    """
+
+    def __init__(self, in_features: int, hidden: Sequence[int], layer_norm: bool = False) -> None:
         super().__init__()
+        norm = {}
+        if layer_norm:
+            norm = {"norm_class": nn.LayerNorm,
+                    "norm_kwargs": [{"normalized_shape": width} for width in hidden]}  # fmt: skip
         self.net = MLP(in_features=in_features, out_features=1, num_cells=list(hidden),
-                       activation_class=nn.ReLU)  # fmt: skip
+                       activation_class=nn.ReLU, **norm)  # fmt: skip
 
     def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         return self.net(torch.cat([obs, action], -1))
 
 
-def make_q_critic(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) -> TensorDictModule:
-    """Per-AUV Q(o, a) (shared weights), written to ``("agents", "state_action_value")``.
+def critic_layer_norm(cfg: Mapping) -> bool:
+    """A recipe config's ``network.layer_norm`` (absent: ``False``): whether its critics put a
+    ``LayerNorm`` in each hidden layer (:class:`ObsActionMLP`)."""
+    return bool(cfg["network"].get("layer_norm", False))
+
+
+def make_q_critic(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256),
+                  layer_norm: bool = False) -> TensorDictModule:  # fmt: skip
+    """Per-AUV Q(o, a) (shared weights), written to ``("agents", "state_action_value")``;
+    ``layer_norm``: :class:`ObsActionMLP`'s.
 
     A plain ``TensorDictModule`` with an explicit out key: TorchRL's ``ValueOperator`` names its
     output ``state_value`` when the action key is nested.
     """
     obs_dim, act_dim = observation_action_dims(env)
-    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden), in_keys=[OBSERVATION, ACTION],
-                            out_keys=[Q_VALUE])  # fmt: skip
+    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden, layer_norm),
+                            in_keys=[OBSERVATION, ACTION], out_keys=[Q_VALUE])  # fmt: skip
 
 
-def make_lyapunov_critic(env, hidden: Sequence[int] = (256, 256)) -> TensorDictModule:
+def make_lyapunov_critic(env, hidden: Sequence[int] = (256, 256),
+                         layer_norm: bool = False) -> TensorDictModule:  # fmt: skip
     """Per-AUV Lyapunov critic's raw output z(o, a) (shared weights) at
     ``("agents", "lyapunov_raw")``; the form (e.g. softplus) is applied by the loss and the
-    selector."""
+    selector; ``layer_norm``: :class:`ObsActionMLP`'s."""
     obs_dim, act_dim = observation_action_dims(env)
-    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden), in_keys=[OBSERVATION, ACTION],
-                            out_keys=[LYAPUNOV_RAW])  # fmt: skip
+    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden, layer_norm),
+                            in_keys=[OBSERVATION, ACTION], out_keys=[LYAPUNOV_RAW])  # fmt: skip

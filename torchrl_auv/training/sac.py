@@ -24,7 +24,11 @@ from torchrl_auv.objectives import CandidateBackupSACLoss, SelectionRule
 from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.keys import ACTION, AGENTS, Q_VALUE
 from torchrl_auv.training.learner import Learner
-from torchrl_auv.training.networks import make_q_critic, observation_action_dims
+from torchrl_auv.training.networks import (
+    critic_layer_norm,
+    make_q_critic,
+    observation_action_dims,
+)
 
 __all__ = ["SAC_LOGGED_KEYS", "make_sac_loss", "sac_from_config", "sac_optimisers"]
 
@@ -78,17 +82,18 @@ def sac_optimisers(loss, optim: Mapping) -> dict[str, torch.optim.Optimizer]:
 
 def sac_from_config(cfg: Mapping, env: DataCollectionEnv, actor: ProbabilisticActor,
                     rule: SelectionRule | None = None) -> Learner:  # fmt: skip
-    """The SAC learner of a recipe config: a Q ensemble of ``cfg.network.hidden``,
+    """The SAC learner of a recipe config: a Q ensemble of ``cfg.network.critics`` (absent: 2,
+    SAC's twin) critics of ``cfg.network.hidden`` (``cfg.network.layer_norm``, absent: off),
     :func:`make_sac_loss` with ``cfg.optim``'s gamma, initial temperature, tau and Q loss,
     ``cfg.selection.backup`` (absent: ``actor``) and the selector's ``rule``,
     :func:`sac_optimisers`, logging :data:`SAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent:
     ``False``) compiles the update (:class:`~torchrl_auv.training.Learner`)."""
-    optim = cfg["optim"]
-    critic = make_q_critic(env, cfg["network"]["hidden"]).to(cfg["device"])
+    optim, network = cfg["optim"], cfg["network"]
+    critic = make_q_critic(env, network["hidden"], layer_norm=critic_layer_norm(cfg))
     loss, target_updater = make_sac_loss(
-        actor, critic, env, gamma=optim["gamma"], alpha_init=optim["alpha_init"],
-        tau=optim["tau"], loss_function=optim["loss_function"], backup=selection_backup(cfg),
-        rule=rule,
+        actor, critic.to(cfg["device"]), env, gamma=optim["gamma"],
+        alpha_init=optim["alpha_init"], tau=optim["tau"], loss_function=optim["loss_function"],
+        num_qvalue_nets=int(network.get("critics", 2)), backup=selection_backup(cfg), rule=rule,
     )  # fmt: skip
     return Learner(
         loss,
