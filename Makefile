@@ -16,6 +16,9 @@ STAMP  := $(VENV)/.installed
 export OMP_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export WANDB_MODE ?= offline
+# Test processes (pytest-xdist): one per core of the 2-core machines the suite is sized for; each
+# test file runs whole in one process (its module fixtures are built once).
+TEST_WORKERS ?= 2
 
 .PHONY: setup demo table3 test test-all bench docs lint clean
 
@@ -37,10 +40,10 @@ table3: $(STAMP)
 	$(PY) -m recipes.main
 
 test: $(STAMP)
-	$(PY) -m pytest
+	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 test-all: $(STAMP)
-	$(PY) -m pytest --runslow
+	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --runslow
 
 bench: $(STAMP)
 	@for b in benchmarks/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

@@ -18,6 +18,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import random
+import sys
 import tempfile
 import zlib
 
@@ -26,6 +27,13 @@ import pytest
 import torch
 
 torch.set_num_threads(1)
+
+# Processes a test spawns (collector workers, artefact builders) unpickle functions of the test
+# modules by name (``tests.training...``): the project root must be on the path they inherit,
+# also in pytest-xdist's workers (``make test`` runs two), whose path starts elsewhere.
+_ROOT = os.path.dirname(os.path.abspath(__file__))
+if _ROOT not in sys.path:
+    sys.path.insert(0, _ROOT)
 
 _CACHE_ROOT = tempfile.mkdtemp(prefix="torchrl_auv_tests_")
 for _var, _sub in {
