@@ -14,6 +14,11 @@ probability that one of its runs improves on one of the reference's, e.g. two pr
 over the same seeds:
 
     .venv/bin/python recipes/aggregate.py runs/presets --intervals --against preset=paper
+
+``--against policy=NAME`` compares each job's framework with another row of the same jobs, e.g.
+the RL stage against its own prior (issue [21/26]'s question):
+
+    .venv/bin/python recipes/aggregate.py runs/sweeps/rl_stage --against "policy=proposer alone"
 """
 
 from __future__ import annotations
@@ -52,7 +57,8 @@ def main(argv: list[str] | None = None) -> None:
         "--against",
         default=None,
         metavar="KEY=VALUE",
-        help="compare every group with the one whose axis KEY is VALUE",
+        help="compare every group with the one whose axis KEY is VALUE (KEY policy: another "
+        "row of the same jobs)",
     )
     args = parser.parse_args(argv)
     axis, sep, reference = (args.against or "").partition("=")

@@ -94,6 +94,20 @@ def test_compare_says_whether_a_preset_lies_inside_the_reference_interval():
         compare(rows, axis="sampler", reference="paper", metrics=("cost_mean",))
 
 
+def test_compare_sets_each_framework_against_another_row_of_its_own_jobs():
+    rows = _rows("paper", [1.0, 1.1, 1.2, 1.3], [5.0, 6.0, 7.0, 8.0])
+    alone = _rows("paper", [0.9, 1.0, 1.1, 1.2], [9.0, 9.5, 10.0, 11.0])
+    rows += [{**row, "policy": "proposer alone"} for row in alone]
+    rows += [{**row, "policy": "expert", "sdr_mbit": 0.0} for row in alone]  # neither side
+    pairs = compare(rows, axis="policy", reference="proposer alone", metrics=("sdr_mbit",),
+                    reps=500)  # fmt: skip
+    assert [(row["policy"], row["runs"], row["reference_runs"]) for row in pairs] == [("lac", 4, 4)]
+    assert pairs[0]["improvement"].point == 0.0 and not pairs[0]["inside"]
+    assert pairs[0]["mean"] == pytest.approx(6.5)
+    with pytest.raises(ValueError, match="reference must be one of"):
+        compare(rows, axis="policy", reference="idle", metrics=("sdr_mbit",))
+
+
 def test_the_sweep_table_shows_the_interval_when_asked():
     rows = _rows("paper", [1.0, 1.1, 1.2], [5.0, 6.0, 7.0])
     table = aggregate(rows, metrics=("cost_mean",), intervals=True, reps=500)

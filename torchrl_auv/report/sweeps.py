@@ -121,16 +121,20 @@ def parse_number(text: str):
         return text
 
 
-def _groups(rows: Sequence[dict], over: str, policies: Sequence[str] | None):
-    """``(axes, {(*axis values, sea_state, policy): rows})``: :func:`aggregate`'s grouping."""
+def _groups(rows: Sequence[dict], over: str, policies: Sequence[str] | None,
+            also: Sequence[str] = ()):  # fmt: skip
+    """``(axes, {(*axis values, sea_state, policy): rows})``: :func:`aggregate`'s grouping;
+    the rows of the policies in ``also`` are kept whatever ``policies`` keeps."""
     axes = [key for key in rows[0] if key not in (over, "run", "sea_state", "policy")
             and not isinstance(rows[0][key], float)] if rows else []  # fmt: skip
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         own = row.get("framework")
-        if policies is None and own is not None and row["policy"] != own:
+        if row["policy"] in also:
+            pass
+        elif policies is None and own is not None and row["policy"] != own:
             continue
-        if policies is not None and row["policy"] not in policies:
+        elif policies is not None and row["policy"] not in policies:
             continue
         key = (*(row.get(axis, "") for axis in axes), row["sea_state"], row["policy"])
         groups.setdefault(key, []).append(row)
@@ -186,12 +190,16 @@ def compare(
     other axes, sea state and policy), metric by metric: its mean, the reference's mean and
     95 % interval over runs, whether the mean lies inside, and the probability that one of
     its runs improves on one of the reference's (lower is better for
-    :data:`LOWER_IS_BETTER`), with its interval. Raises ``ValueError`` naming ``axis`` when
-    the rows have no such axis or no group has ``reference``."""
-    axes, groups = _groups(rows, over, policies)
-    if axis not in axes:
-        raise ValueError(f"axis must be one of the runs' axes {axes}, got {axis!r}")
-    where = axes.index(axis)
+    :data:`LOWER_IS_BETTER`), with its interval. ``axis="policy"``: each job's framework (or
+    ``policies``) against another row of the same jobs, e.g. ``reference="proposer alone"``
+    (the same runs on both sides, unpaired as rliable's probability of improvement is).
+    Raises ``ValueError`` naming ``axis`` when the rows have no such axis or no group has
+    ``reference``."""
+    also = (reference,) if axis == "policy" else ()
+    axes, groups = _groups(rows, over, policies, also)
+    if axis not in (*axes, "policy"):
+        raise ValueError(f"axis must be one of the runs' axes {axes} or policy, got {axis!r}")
+    where = (*axes, "sea_state", "policy").index(axis)
     found = []
     for key, members in groups.items():
         if key[where] == reference:
