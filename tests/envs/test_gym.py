@@ -65,3 +65,28 @@ def test_a_non_finite_or_misshapen_gymnasium_action_is_an_error_naming_it(env_id
         env.step(action)
     with pytest.raises(ValueError, match=rf"action must have shape \[{action.size}\]"):
         env.step(np.zeros(action.size - 1, dtype=np.float32))
+
+
+@pytest.mark.parametrize("env_id", ["torchrl_auv/DataCollection-v2", "torchrl_auv/Tracking-v0"])
+def test_unseeded_envs_start_differently_as_gymnasium_expects(env_id):
+    """Gymnasium's convention: no seed means entropy. Unseeded, every env used to start as seed
+    0: a vector env's workers trained on copies of one scene."""
+    starts = [gymnasium.make(env_id, max_steps=3).reset()[0] for _ in range(2)]
+    assert not np.array_equal(*starts)
+    vector = gymnasium.make_vec(env_id, num_envs=2, vectorization_mode="sync", max_steps=3)
+    first, _ = vector.reset()
+    assert not np.array_equal(first[0], first[1])
+    env = gymnasium.make(env_id, max_steps=3)  # seeded once, later resets continue its stream
+    seeded = [env.reset(seed=7)[0], env.reset()[0]]
+    again = gymnasium.make(env_id, max_steps=3)
+    assert all(np.array_equal(a, b) for a, b in zip(seeded, [again.reset(seed=7)[0],
+                                                             again.reset()[0]], strict=True))  # fmt: skip
+    constructed = [gymnasium.make(env_id, max_steps=3, seed=5).reset()[0] for _ in range(2)]
+    assert np.array_equal(*constructed)  # a seed keyword is a seed too
+
+
+def test_render_mode_none_is_accepted_and_an_unknown_mode_is_named():
+    env = gymnasium.make("torchrl_auv/Tracking-v0", render_mode=None, max_steps=3)
+    assert env.unwrapped.render_mode is None
+    with pytest.raises(ValueError, match="render_mode must be None"):
+        gymnasium.make("torchrl_auv/Tracking-v0", render_mode="human")

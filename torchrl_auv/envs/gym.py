@@ -7,7 +7,8 @@ single, unbatched episode on numpy arrays with float32 ``Box(-inf, inf)`` observ
 ``Box(-1, 1)`` actions: 16 and 3 for tracking; for data collection the flat single-agent
 layout (``flatten_agents=True``), ``38 N`` and ``3 N``, with the reward summed over the AUVs.
 ``info`` carries the ``cost`` and, at the end of an episode, the episode metrics. For batched
-or multi-agent training use the TorchRL envs directly. Unknown keyword arguments (and
+or multi-agent training use the TorchRL envs directly. An env never seeded draws its seed from
+entropy at its first reset (gymnasium's convention; ``_GymView``). Unknown keyword arguments (and
 ``batch_size``) raise Python's usual ``TypeError: ... got an unexpected keyword argument
 '<name>'``, so TorchRL's ``GymEnv("torchrl_auv.envs:<id>")``, which tries ``frameskip`` first
 and drops it on exactly that error, builds these ids.
@@ -32,11 +33,22 @@ DATA_COLLECTION_ID = "torchrl_auv/DataCollection-v2"
 
 
 class _GymView(gymnasium.Env):
-    """One unbatched TorchRL env (flat ``observation``/``action`` keys) as a gymnasium env."""
+    """One unbatched TorchRL env (flat ``observation``/``action`` keys) as a gymnasium env.
+
+    Seeding follows gymnasium's convention: ``reset(seed=s)`` (or a ``seed`` keyword at
+    construction) fixes the episodes; an env never seeded draws its seed from the OS's entropy
+    at its first reset, so two unseeded envs (e.g. a vector env's workers) differ, and later
+    unseeded resets continue its stream. ``render_mode``: ``None`` (no rendering) only.
+    """
 
     metadata = {"render_modes": []}  # noqa: RUF012 - gymnasium's convention
 
-    def __init__(self, env: EnvBase) -> None:
+    def __init__(self, env: EnvBase, *, seeded: bool, render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or one of "
+                             f"{self.metadata['render_modes']}, got {render_mode!r}")  # fmt: skip
+        self.render_mode = render_mode
+        self._seeded = seeded
         self._env = env
         obs_dim = env.observation_spec["observation"].shape[-1]
         act_dim = env.full_action_spec["action"].shape[-1]
@@ -48,6 +60,9 @@ class _GymView(gymnasium.Env):
         super().reset(seed=seed)
         if seed is not None:
             self._env.set_seed(seed)
+        elif not self._seeded:  # gymnasium's np_random, drawn from entropy when never seeded
+            self._env.set_seed(int(self.np_random.integers(2**31 - 1)))
+        self._seeded = True
         self._td = self._env.reset()
         return self._td["observation"].numpy().copy(), {}
 
@@ -93,9 +108,10 @@ class TrackingGymEnv(_GymView):
     ((16,), dtype('float32'))
     """
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         _reject_batch_size(TrackingGymEnv, kwargs)
-        super().__init__(AUVTrackingEnv(batch_size=[], **kwargs))
+        super().__init__(AUVTrackingEnv(batch_size=[], **kwargs),
+                         seeded=kwargs.get("seed") is not None, render_mode=render_mode)  # fmt: skip
 
 
 class DataCollectionGymEnv(_GymView):
@@ -108,11 +124,12 @@ class DataCollectionGymEnv(_GymView):
     ((76,), (6,))
     """
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         if "flatten_agents" in kwargs:
             raise ValueError("flatten_agents is always True in the gymnasium view; do not pass it")
         _reject_batch_size(DataCollectionGymEnv, kwargs)
-        super().__init__(DataCollectionEnv(batch_size=[], flatten_agents=True, **kwargs))
+        super().__init__(DataCollectionEnv(batch_size=[], flatten_agents=True, **kwargs),
+                         seeded=kwargs.get("seed") is not None, render_mode=render_mode)  # fmt: skip
 
 
 def register_gymnasium_ids() -> None:
