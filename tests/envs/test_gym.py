@@ -79,8 +79,8 @@ def test_unseeded_envs_start_differently_as_gymnasium_expects(env_id):
     env = gymnasium.make(env_id, max_steps=3)  # seeded once, later resets continue its stream
     seeded = [env.reset(seed=7)[0], env.reset()[0]]
     again = gymnasium.make(env_id, max_steps=3)
-    assert all(np.array_equal(a, b) for a, b in zip(seeded, [again.reset(seed=7)[0],
-                                                             again.reset()[0]], strict=True))  # fmt: skip
+    replayed = [again.reset(seed=7)[0], again.reset()[0]]
+    assert all(np.array_equal(a, b) for a, b in zip(seeded, replayed, strict=True))
     constructed = [gymnasium.make(env_id, max_steps=3, seed=5).reset()[0] for _ in range(2)]
     assert np.array_equal(*constructed)  # a seed keyword is a seed too
 

@@ -110,8 +110,9 @@ class TrackingGymEnv(_GymView):
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         _reject_batch_size(TrackingGymEnv, kwargs)
-        super().__init__(AUVTrackingEnv(batch_size=[], **kwargs),
-                         seeded=kwargs.get("seed") is not None, render_mode=render_mode)  # fmt: skip
+        seeded = kwargs.get("seed") is not None
+        env = AUVTrackingEnv(batch_size=[], **kwargs)
+        super().__init__(env, seeded=seeded, render_mode=render_mode)
 
 
 class DataCollectionGymEnv(_GymView):
@@ -128,8 +129,9 @@ class DataCollectionGymEnv(_GymView):
         if "flatten_agents" in kwargs:
             raise ValueError("flatten_agents is always True in the gymnasium view; do not pass it")
         _reject_batch_size(DataCollectionGymEnv, kwargs)
-        super().__init__(DataCollectionEnv(batch_size=[], flatten_agents=True, **kwargs),
-                         seeded=kwargs.get("seed") is not None, render_mode=render_mode)  # fmt: skip
+        seeded = kwargs.get("seed") is not None
+        env = DataCollectionEnv(batch_size=[], flatten_agents=True, **kwargs)
+        super().__init__(env, seeded=seeded, render_mode=render_mode)
 
 
 def register_gymnasium_ids() -> None:
