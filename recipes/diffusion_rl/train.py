@@ -6,10 +6,13 @@
 1. First stage (one cached artefact per first-stage values in ``proposer.cache_dir``, shared
    by the diffusion recipes and sweep jobs): scripted-expert demonstrations, proposer
    pretraining and DAgger rounds, or ``proposer.path``.
-2. Acting: the proposer proposes K action chunks per AUV; the Q critic (the min over SAC's twin
-   Q networks, ``QEnsembleCritic.from_loss``) scores their first actions and the actor's own
-   action; the highest Q is executed.
-3. Training: TorchRL's ``SACLoss`` (actor, twin Q, temperature) from a
+2. Acting: the proposer proposes K action chunks per AUV; the Q ensemble
+   (``network.critics`` networks, ``QEnsembleCritic.from_loss``) scores their first actions
+   (and, with ``selection.include_actor``, the actor's own action); the selection rule executes
+   the medoid unless a candidate's pessimistic Q beats it (``selection.anchor``), or the
+   highest Q (``selection.anchor=null``, the paper).
+3. Training: TorchRL's ``SACLoss`` (actor, Q ensemble, temperature; the Q target on the
+   candidate executed at the next state, ``selection.backup``) from a
    ``TensorDictReplayBuffer`` filled by a ``Collector``, on the executed actions.
 4. Evaluation on held-out seeds: the framework, each candidate rank on its own (OA, CA1, ...),
    the actor alone ("RL"), the proposer alone, the scripted expert and random actions.
@@ -33,14 +36,14 @@ def main(cfg: DictConfig) -> None:
     stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
     proposer = stage.proposer.to(cfg.device)
 
-    # 2. env, actor, SAC learner, the proposer-selector policy ranking with the live twin Q
+    # 2. env, actor, SAC learner, the proposer-selector policy ranking with the live Q ensemble
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
     #    the rule (argmax, or anchored on the medoid) is shared by the selector and the
     #    critics' backup (selection.backup=candidates: on the next state's candidates)
     rule = training.selection_rule_from_config(cfg)
     learner = training.sac_from_config(cfg, env, actor, rule=rule)
-    q_critic = QEnsembleCritic.from_loss(learner.loss)  # the min over the twin Q networks
+    q_critic = QEnsembleCritic.from_loss(learner.loss)  # the min over the Q ensemble
     policy = training.make_selection_policy(proposer, q_critic, mode="q",
                                             actor=actor if cfg.selection.include_actor else None,
                                             critic_out_key=q_critic.out_keys[0],
