@@ -1,4 +1,4 @@
-"""Package-level checks: version, subpackage docstrings and the layering of ARCHITECTURE.md."""
+"""Package-level checks: version, subpackage docstrings, the layers of the package docstring."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import torchrl_auv
 
 PACKAGE_ROOT = Path(torchrl_auv.__file__).parent
 
-# Which torchrl_auv subpackages each layer may import (ARCHITECTURE.md, "Layers").
+# Which torchrl_auv subpackages each layer may import (the package docstring).
 # The four lowest layers are plain torch: they must not import torchrl either.
 ALLOWED_IMPORTS: dict[str, set[str]] = {
     "physics": set(),
@@ -80,7 +80,7 @@ def test_every_subpackage_is_a_known_layer_with_a_docstring():
     subpackages = _subpackages()
     assert subpackages, "the package has no subpackages"
     for name in subpackages:
-        assert name in ALLOWED_IMPORTS, f"torchrl_auv.{name} is not a layer of ARCHITECTURE.md"
+        assert name in ALLOWED_IMPORTS, f"torchrl_auv.{name} is not a documented layer"
         module = importlib.import_module(f"torchrl_auv.{name}")
         assert module.__doc__ and len(module.__doc__.strip()) > 20, f"{name} lacks a docstring"
 

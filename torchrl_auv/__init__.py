@@ -1,12 +1,23 @@
 """torchrl-auv: TorchRL components for stable and robust control of AUVs.
 
-The package is layered (see ``ARCHITECTURE.md`` in the design notes):
+The package is layered; each layer imports only the layers listed before it (checked by
+``tests/test_package.py``):
 
-* :mod:`torchrl_auv.physics`: REMUS-100 6-DoF dynamics, ocean sea states and energy models
-  (plain batched torch, no TorchRL import).
-
-Higher layers (controllers, estimation, environments, proposer, losses, advisor) are added on
-top of it and import only the layers below them.
+* :mod:`torchrl_auv.physics`: the REMUS-100 6-DoF model (``docs/spec/remus100.md``), ocean
+  sea states, acoustics and energy (plain batched torch, like the next three layers).
+* :mod:`torchrl_auv.estimation`: sensor models and the Kalman filter (physics).
+* :mod:`torchrl_auv.control`: the S-surface, PID and SMC low-level controllers (physics).
+* :mod:`torchrl_auv.iout`: the data-collection task: nodes, network, expert, cost (the above).
+* :mod:`torchrl_auv.envs`: the TorchRL ``EnvBase`` environments and their gymnasium ids
+  (the above).
+* :mod:`torchrl_auv.modules`: the diffusion proposer and other ``TensorDictModule`` s (none).
+* :mod:`torchrl_auv.objectives`: the Lyapunov actor-critic loss, the candidate selection and
+  backups (modules).
+* :mod:`torchrl_auv.advisor`: the LLM / rule-based outer loop (objectives).
+* :mod:`torchrl_auv.training`: what the recipes build: envs, learners, collectors, runs,
+  evaluation (every layer above).
+* :mod:`torchrl_auv.report` and :mod:`torchrl_auv.cli`: tables, figures and command-line tools
+  (every layer).
 
 >>> import torchrl_auv
 >>> isinstance(torchrl_auv.__version__, str)

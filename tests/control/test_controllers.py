@@ -11,7 +11,7 @@ from torchrl_auv.control import make_controller, wrap_angle
 from torchrl_auv.control.scenarios import simulate, tracking_errors, tracking_schedule
 
 NAMES = ("s_surface", "pid", "smc")
-# Regression bounds, not specification bounds: neither the paper nor shared/spec/ states
+# Regression bounds, not specification bounds: neither the paper nor docs/spec/ states
 # step-response requirements. 90 deg heading step and 10 m depth step (2 m -> 12 m) at 1200 rpm
 # in still water: (heading settling s to 2 deg, heading overshoot deg, depth settling s to
 # 0.5 m, depth overshoot m). Each bound is the default gains' own measured value (the table in

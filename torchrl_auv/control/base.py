@@ -1,6 +1,6 @@
 """The common controller interface, angle wrapping, and the controller registry.
 
-Sign conventions of the REMUS-100 model (``shared/spec/remus100.md``): a positive rudder angle
+Sign conventions of the REMUS-100 model (``docs/spec/remus100.md``): a positive rudder angle
 turns the vehicle to starboard (positive yaw rate), a positive stern-plane angle pitches the
 nose down so the vehicle dives (depth ``z`` increases, pitch ``theta`` decreases).
 """

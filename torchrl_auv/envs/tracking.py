@@ -45,7 +45,7 @@ DIVERGENCE_COST = 10.0  # cost of the decision that ends in a diverged state
 class AUVTrackingEnv(EnvBase):
     """Heading, depth and speed tracking with one REMUS-100 (env card).
 
-    **Description.** A REMUS-100 (``shared/spec/remus100.md``) must follow a reference of
+    **Description.** A REMUS-100 (``docs/spec/remus100.md``) must follow a reference of
     depth, heading and surge speed that changes every ``segment_seconds`` (drawn per episode:
     depth U(5, 30) m, heading U(-pi, pi) rad, speed U(1.2, 2.2) m/s). The agent acts once per
     second by moving the setpoints of a low-level controller (S-Surface, PID or SMC) that runs

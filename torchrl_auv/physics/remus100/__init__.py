@@ -1,6 +1,6 @@
 r"""Batched REMUS-100 6-DoF model (Fossen's Python Vehicle Simulator version), in plain torch.
 
-This is the model of ``shared/spec/remus100.md``: the REMUS-100 of T. I. Fossen's *Python Vehicle
+This is the model of ``docs/spec/remus100.md``: the REMUS-100 of T. I. Fossen's *Python Vehicle
 Simulator* (Fossen 2021, *Handbook of Marine Craft Hydrodynamics and Motion Control*, 2nd ed.,
 Sec. 8.4.2; Allen, Vorus and Prestero 2000), re-written from the specification as closed-form
 tensor expressions batched over any leading dimensions ``[*B]``.
