@@ -13,7 +13,8 @@ from omegaconf import OmegaConf
 
 from torchrl_auv.envs.demonstrations import load_demonstrations
 from torchrl_auv.modules import DiffusionProposer
-from torchrl_auv.training import first_stage_from_config, first_stage_values
+from torchrl_auv.training import first_stage_frames, first_stage_from_config, first_stage_values
+from torchrl_auv.training.first_stage import FIRST_STAGE_FRAMES_FACT
 
 
 def _cfg(cache_dir, **proposer):
@@ -63,6 +64,10 @@ def test_built_once_then_reused_with_acting_values_applied(tmp_path):
     assert again.proposer.num_candidates == 7 and again.proposer.sampler == "ddpm"
     assert again.proposer.compile is True
     assert "reused" in again.facts["first stage"]
+    # the offline frames it reports are the frames its demonstrations and DAgger round hold
+    frames = first_stage_frames(first_stage_values(_cfg(tmp_path)))
+    assert again.facts[FIRST_STAGE_FRAMES_FACT] == frames
+    assert demos.shape[0] + visited.shape[0] == frames * 2  # one sample per AUV (2) and frame
     # a value that shapes the weights: a new artefact
     other = first_stage_from_config(_cfg(tmp_path, pretrain_steps=5))
     assert other.built and other.folder != first.folder

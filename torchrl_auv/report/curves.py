@@ -37,9 +37,20 @@ def read_curve(path: str | Path) -> dict[str, tuple[list[int], list[float]]]:
 
 
 def plot_learning_curve(
-    path: str | Path, out: str | Path, *, keys: Sequence[str] = DEFAULT_KEYS
+    path: str | Path,
+    out: str | Path,
+    *,
+    keys: Sequence[str] = DEFAULT_KEYS,
+    offline_frames: int = 0,
 ) -> Path:
-    """One panel per key present in the curve CSV ``path``, against frames; writes ``out``."""
+    """One panel per key present in the curve CSV ``path``, against frames; writes ``out``.
+    ``offline_frames``: frames collected before training (a first stage's demonstrations and
+    DAgger rounds, SAC's demonstrations): the axis starts there and says so, since such frames
+    are not free."""
+    if isinstance(offline_frames, bool) or not isinstance(offline_frames, int):
+        raise ValueError(f"offline_frames must be an integer >= 0, got {offline_frames!r}")
+    if offline_frames < 0:
+        raise ValueError(f"offline_frames must be an integer >= 0, got {offline_frames!r}")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -51,10 +62,11 @@ def plot_learning_curve(
                              squeeze=False)  # fmt: skip
     for ax, key in zip(axes[:, 0], present, strict=True):
         steps, values = curves[key]
-        ax.plot(steps, values, marker=".")
+        ax.plot([step + offline_frames for step in steps], values, marker=".")
         ax.set_ylabel(key.split("/", 1)[-1], fontsize=8)
         ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel("frames")
+    axes[-1, 0].set_xlabel(f"frames, from {offline_frames:,} collected offline" if offline_frames
+                           else "frames")  # fmt: skip
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)

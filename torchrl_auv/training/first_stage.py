@@ -69,12 +69,16 @@ __all__ = [
     "FIRST_STAGE_VERSION",
     "FirstStage",
     "build_first_stage",
+    "first_stage_frames",
     "first_stage_from_config",
     "first_stage_values",
     "proposer_from_config",
 ]
 
 log = logging.getLogger(__name__)
+
+#: the run summary's line for :func:`first_stage_frames`
+FIRST_STAGE_FRAMES_FACT = "first-stage frames (offline: demonstrations and DAgger)"
 
 #: Bumped whenever the way a first stage is built changes: older artefacts are then rebuilt.
 FIRST_STAGE_VERSION = 4  # 4: task v3 (the 38-feature observation with the delivery age)
@@ -174,6 +178,23 @@ def first_stage_values(cfg: Mapping | DictConfig) -> dict:
     }
 
 
+def first_stage_frames(values: Mapping) -> int:
+    """The env frames (scene-decisions) a first stage collects offline, from its
+    :func:`first_stage_values`: the expert's demonstrations and the DAgger rounds,
+    ``(demo_batches + dagger_rounds * dagger_batches) * demo_episodes * demo_steps`` (a budget:
+    each scene counts its ``demo_steps`` decisions). Learning curves of the diffusion recipes
+    start after them; a plot against SAC's frames should add them.
+
+    >>> first_stage_frames(first_stage_values({"proposer": {
+    ...     "demo_batches": 2, "demo_episodes": 48, "demo_steps": 1000,
+    ...     "dagger_rounds": 1, "dagger_batches": 2}}))
+    192000
+    """
+    demo, dagger = values["demonstrations"], values["dagger"]
+    batches = demo["demo_batches"] + dagger["dagger_rounds"] * dagger["dagger_batches"]
+    return int(batches * demo["demo_episodes"] * demo["demo_steps"])
+
+
 @dataclass
 class FirstStage:
     """A loaded first stage: the proposer, its folder (``None`` for a bare ``proposer.path``
@@ -240,7 +261,8 @@ def first_stage_from_config(
         proposer = DiffusionProposer.load(path)
         _check_structure(proposer, p, path)
         proposer = _apply_acting(proposer, p)
-        return FirstStage(proposer, None, False, {"first stage": f"{path} (proposer.path)"})
+        return FirstStage(proposer, None, False, {"first stage": f"{path} (proposer.path)",
+                                                  FIRST_STAGE_FRAMES_FACT: "unknown"})  # fmt: skip
     cache = ArtefactCache(p.get("cache_dir") or "runs/first_stage")
     name = (
         f"{values['sea_state']}-{values['controller']}-{values['rate_model']}-seed{values['seed']}"
@@ -262,6 +284,7 @@ def first_stage_from_config(
         "first stage": f"{folder} ({'built' if built else 'reused'} in {seconds:.0f} s)",
         "first stage held-out denoising loss": metrics["heldout_loss"],
         "demonstration samples": metrics["samples"],
+        FIRST_STAGE_FRAMES_FACT: first_stage_frames(values),
     }
     return FirstStage(proposer, folder, built, facts)
 
