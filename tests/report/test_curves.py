@@ -15,8 +15,12 @@ def drawn(monkeypatch):
 
     def record(fig, *args, **kwargs):
         axes = fig.get_axes()
-        figures.append(([list(line.get_xdata()) for ax in axes for line in ax.get_lines()],
-                        axes[-1].get_xlabel()))  # fmt: skip
+        figures.append(
+            (
+                [list(line.get_xdata()) for ax in axes for line in ax.get_lines()],
+                axes[-1].get_xlabel(),
+            )
+        )
 
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", record)
     return figures

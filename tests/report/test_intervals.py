@@ -99,8 +99,9 @@ def test_compare_sets_each_framework_against_another_row_of_its_own_jobs():
     alone = _rows("paper", [0.9, 1.0, 1.1, 1.2], [9.0, 9.5, 10.0, 11.0])
     rows += [{**row, "policy": "proposer alone"} for row in alone]
     rows += [{**row, "policy": "expert", "sdr_mbit": 0.0} for row in alone]  # neither side
-    pairs = compare(rows, axis="policy", reference="proposer alone", metrics=("sdr_mbit",),
-                    reps=500)  # fmt: skip
+    pairs = compare(
+        rows, axis="policy", reference="proposer alone", metrics=("sdr_mbit",), reps=500
+    )
     assert [(row["policy"], row["runs"], row["reference_runs"]) for row in pairs] == [("lac", 4, 4)]
     assert pairs[0]["improvement"].point == 0.0 and not pairs[0]["inside"]
     assert pairs[0]["mean"] == pytest.approx(6.5)

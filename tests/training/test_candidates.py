@@ -56,14 +56,26 @@ def test_both_learners_step_on_the_frames_the_buffer_stores(collected):
     data = training.with_next_candidates(data.clone(), proposer)
     frames = training.select_for_replay(data, training.CANDIDATE_KEYS)
     assert set(training.CANDIDATE_KEYS) <= set(frames.keys(True, True))
-    cfg = OmegaConf.create({
-        "optim": {"gamma": 0.97, "lambda_max": 1.0, "loss_function": "l2", "actor_lr": 1e-3,
-                  "critic_lr": 1e-3, "dual_lr": 1e-3, "alpha_lr": 1e-3, "alpha_init": 1.0,
-                  "tau": 0.005},
-        "advisor": {"form": "softplus", "stability_weight": 0.1},
-        "lyapunov": {"cost": "stability"}, "network": {"hidden": [16]}, "device": "cpu",
-        "selection": {"backup": "candidates", "anchor": "medoid"},
-    })  # fmt: skip
+    cfg = OmegaConf.create(
+        {
+            "optim": {
+                "gamma": 0.97,
+                "lambda_max": 1.0,
+                "loss_function": "l2",
+                "actor_lr": 1e-3,
+                "critic_lr": 1e-3,
+                "dual_lr": 1e-3,
+                "alpha_lr": 1e-3,
+                "alpha_init": 1.0,
+                "tau": 0.005,
+            },
+            "advisor": {"form": "softplus", "stability_weight": 0.1},
+            "lyapunov": {"cost": "stability"},
+            "network": {"hidden": [16]},
+            "device": "cpu",
+            "selection": {"backup": "candidates", "anchor": "medoid"},
+        }
+    )
     actor = training.make_actor(env, (16,))
     lac = training.lac_from_config(cfg, env, actor, critic, rule=rule)
     sac = training.sac_from_config(cfg, env, actor, rule=rule)
@@ -95,12 +107,22 @@ def test_the_network_keys_size_the_q_ensemble_and_norm_the_critics(collected):
     env, proposer, _, rule, data = collected
     data = training.with_next_candidates(data.clone(), proposer)
     frames = training.select_for_replay(data, training.CANDIDATE_KEYS)
-    cfg = OmegaConf.create({
-        "optim": {"gamma": 0.99, "loss_function": "l2", "actor_lr": 1e-3, "critic_lr": 1e-3,
-                  "alpha_lr": 1e-3, "alpha_init": 1.0, "tau": 0.005},
-        "network": {"hidden": [16, 8], "critics": 5, "layer_norm": True}, "device": "cpu",
-        "selection": {"backup": "candidates", "anchor": "medoid"},
-    })  # fmt: skip
+    cfg = OmegaConf.create(
+        {
+            "optim": {
+                "gamma": 0.99,
+                "loss_function": "l2",
+                "actor_lr": 1e-3,
+                "critic_lr": 1e-3,
+                "alpha_lr": 1e-3,
+                "alpha_init": 1.0,
+                "tau": 0.005,
+            },
+            "network": {"hidden": [16, 8], "critics": 5, "layer_norm": True},
+            "device": "cpu",
+            "selection": {"backup": "candidates", "anchor": "medoid"},
+        }
+    )
     sac = training.sac_from_config(cfg, env, training.make_actor(env, (16,)), rule=rule)
     scores = QEnsembleCritic.from_loss(sac.loss).members(frames[:4])
     assert scores.shape[0] == 5 and not torch.allclose(scores[0], scores[1])

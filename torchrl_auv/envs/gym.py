@@ -45,8 +45,10 @@ class _GymView(gymnasium.Env):
 
     def __init__(self, env: EnvBase, *, seeded: bool, render_mode: str | None = None) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or one of "
-                             f"{self.metadata['render_modes']}, got {render_mode!r}")  # fmt: skip
+            raise ValueError(
+                f"render_mode must be None or one of "
+                f"{self.metadata['render_modes']}, got {render_mode!r}"
+            )
         self.render_mode = render_mode
         self._seeded = seeded
         self._env = env

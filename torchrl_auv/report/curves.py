@@ -65,8 +65,9 @@ def plot_learning_curve(
         ax.plot([step + offline_frames for step in steps], values, marker=".")
         ax.set_ylabel(key.split("/", 1)[-1], fontsize=8)
         ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel(f"frames, from {offline_frames:,} collected offline" if offline_frames
-                           else "frames")  # fmt: skip
+    axes[-1, 0].set_xlabel(
+        f"frames, from {offline_frames:,} collected offline" if offline_frames else "frames"
+    )
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)

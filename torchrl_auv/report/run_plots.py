@@ -36,8 +36,11 @@ def plot_run(cfg: Mapping, run_dir: str | Path, policy) -> list[Path]:
         episode = env.rollout(ev["steps"], policy, break_when_any_done=False)
     done = episode["next", "done"][0, :, 0]
     end = int(done.nonzero()[0, 0]) + 1 if done.any() else done.numel()  # its first episode
-    offline = (first_stage_frames(first_stage_values(cfg)) if "proposer" in cfg
-               else demonstration_frames(cfg))  # fmt: skip
+    offline = (
+        first_stage_frames(first_stage_values(cfg))
+        if "proposer" in cfg
+        else demonstration_frames(cfg)
+    )
     return [plot_learning_curve(run_dir / "train_curve.csv", run_dir / "learning_curve.png",
                                 offline_frames=offline),
             plot_episode(episode[:, :end], run_dir / "eval_episode.png")]  # fmt: skip

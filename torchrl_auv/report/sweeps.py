@@ -121,8 +121,9 @@ def parse_number(text: str):
         return text
 
 
-def _groups(rows: Sequence[dict], over: str, policies: Sequence[str] | None,
-            also: Sequence[str] = ()):  # fmt: skip
+def _groups(
+    rows: Sequence[dict], over: str, policies: Sequence[str] | None, also: Sequence[str] = ()
+):
     """``(axes, {(*axis values, sea_state, policy): rows})``: :func:`aggregate`'s grouping;
     the rows of the policies in ``also`` are kept whatever ``policies`` keeps."""
     axes = [key for key in rows[0] if key not in (over, "run", "sea_state", "policy")

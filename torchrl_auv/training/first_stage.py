@@ -261,8 +261,12 @@ def first_stage_from_config(
         proposer = DiffusionProposer.load(path)
         _check_structure(proposer, p, path)
         proposer = _apply_acting(proposer, p)
-        return FirstStage(proposer, None, False, {"first stage": f"{path} (proposer.path)",
-                                                  FIRST_STAGE_FRAMES_FACT: "unknown"})  # fmt: skip
+        return FirstStage(
+            proposer,
+            None,
+            False,
+            {"first stage": f"{path} (proposer.path)", FIRST_STAGE_FRAMES_FACT: "unknown"},
+        )
     cache = ArtefactCache(p.get("cache_dir") or "runs/first_stage")
     name = (
         f"{values['sea_state']}-{values['controller']}-{values['rate_model']}-seed{values['seed']}"

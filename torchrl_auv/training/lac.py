@@ -146,12 +146,21 @@ def lac_from_config(
     ``cfg.selection.backup`` (absent: ``actor``) with the selector's ``rule`` is what the
     critics bootstrap on."""
     optim, advisor = cfg["optim"], cfg["advisor"]
-    loss = make_lac_loss(actor, critic, env, gamma=optim["gamma"], form=advisor["form"],
-                         stability_weight=advisor["stability_weight"],
-                         lambda_max=optim["lambda_max"], loss_function=optim["loss_function"],
-                         cost=cfg["lyapunov"]["cost"], hidden=cfg["network"]["hidden"],
-                         layer_norm=critic_layer_norm(cfg), backup=selection_backup(cfg),
-                         rule=rule)  # fmt: skip
+    loss = make_lac_loss(
+        actor,
+        critic,
+        env,
+        gamma=optim["gamma"],
+        form=advisor["form"],
+        stability_weight=advisor["stability_weight"],
+        lambda_max=optim["lambda_max"],
+        loss_function=optim["loss_function"],
+        cost=cfg["lyapunov"]["cost"],
+        hidden=cfg["network"]["hidden"],
+        layer_norm=critic_layer_norm(cfg),
+        backup=selection_backup(cfg),
+        rule=rule,
+    )
     target_updater = SoftUpdate(loss, tau=optim["tau"])
     return Learner(
         loss,

@@ -75,10 +75,17 @@ class ObsActionMLP(nn.Module):
         super().__init__()
         norm = {}
         if layer_norm:
-            norm = {"norm_class": nn.LayerNorm,
-                    "norm_kwargs": [{"normalized_shape": width} for width in hidden]}  # fmt: skip
-        self.net = MLP(in_features=in_features, out_features=1, num_cells=list(hidden),
-                       activation_class=nn.ReLU, **norm)  # fmt: skip
+            norm = {
+                "norm_class": nn.LayerNorm,
+                "norm_kwargs": [{"normalized_shape": width} for width in hidden],
+            }
+        self.net = MLP(
+            in_features=in_features,
+            out_features=1,
+            num_cells=list(hidden),
+            activation_class=nn.ReLU,
+            **norm,
+        )
 
     def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         return self.net(torch.cat([obs, action], -1))
@@ -90,8 +97,9 @@ def critic_layer_norm(cfg: Mapping) -> bool:
     return bool(cfg["network"].get("layer_norm", False))
 
 
-def make_q_critic(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256),
-                  layer_norm: bool = False) -> TensorDictModule:  # fmt: skip
+def make_q_critic(
+    env: DataCollectionEnv, hidden: Sequence[int] = (256, 256), layer_norm: bool = False
+) -> TensorDictModule:
     """Per-AUV Q(o, a) (shared weights), written to ``("agents", "state_action_value")``;
     ``layer_norm``: :class:`ObsActionMLP`'s.
 
@@ -99,15 +107,22 @@ def make_q_critic(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256),
     output ``state_value`` when the action key is nested.
     """
     obs_dim, act_dim = observation_action_dims(env)
-    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden, layer_norm),
-                            in_keys=[OBSERVATION, ACTION], out_keys=[Q_VALUE])  # fmt: skip
+    return TensorDictModule(
+        ObsActionMLP(obs_dim + act_dim, hidden, layer_norm),
+        in_keys=[OBSERVATION, ACTION],
+        out_keys=[Q_VALUE],
+    )
 
 
-def make_lyapunov_critic(env, hidden: Sequence[int] = (256, 256),
-                         layer_norm: bool = False) -> TensorDictModule:  # fmt: skip
+def make_lyapunov_critic(
+    env, hidden: Sequence[int] = (256, 256), layer_norm: bool = False
+) -> TensorDictModule:
     """Per-AUV Lyapunov critic's raw output z(o, a) (shared weights) at
     ``("agents", "lyapunov_raw")``; the form (e.g. softplus) is applied by the loss and the
     selector; ``layer_norm``: :class:`ObsActionMLP`'s."""
     obs_dim, act_dim = observation_action_dims(env)
-    return TensorDictModule(ObsActionMLP(obs_dim + act_dim, hidden, layer_norm),
-                            in_keys=[OBSERVATION, ACTION], out_keys=[LYAPUNOV_RAW])  # fmt: skip
+    return TensorDictModule(
+        ObsActionMLP(obs_dim + act_dim, hidden, layer_norm),
+        in_keys=[OBSERVATION, ACTION],
+        out_keys=[LYAPUNOV_RAW],
+    )
