@@ -47,9 +47,11 @@ def plot_learning_curve(
     ``offline_frames``: frames collected before training (a first stage's demonstrations and
     DAgger rounds, SAC's demonstrations): the axis starts there and says so, since such frames
     are not free."""
-    if isinstance(offline_frames, bool) or not isinstance(offline_frames, int):
-        raise ValueError(f"offline_frames must be an integer >= 0, got {offline_frames!r}")
-    if offline_frames < 0:
+    if (
+        isinstance(offline_frames, bool)
+        or not isinstance(offline_frames, int)
+        or offline_frames < 0
+    ):
         raise ValueError(f"offline_frames must be an integer >= 0, got {offline_frames!r}")
     import matplotlib
 

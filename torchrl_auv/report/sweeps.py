@@ -130,12 +130,9 @@ def _groups(
             and not isinstance(rows[0][key], float)] if rows else []  # fmt: skip
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
-        own = row.get("framework")
-        if row["policy"] in also:
-            pass
-        elif policies is None and own is not None and row["policy"] != own:
-            continue
-        elif policies is not None and row["policy"] not in policies:
+        policy, own = row["policy"], row.get("framework")
+        shown = (own is None or policy == own) if policies is None else policy in policies
+        if not (shown or policy in also):
             continue
         key = (*(row.get(axis, "") for axis in axes), row["sea_state"], row["policy"])
         groups.setdefault(key, []).append(row)

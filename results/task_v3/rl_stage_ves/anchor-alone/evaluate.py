@@ -12,9 +12,11 @@ from torchrl_auv import training
 
 cfg = OmegaConf.load("RUN_ROOT/R-anchor/.hydra/config.yaml")
 proposer = training.proposer_from_config(cfg)
-rows = {"proposer alone (medoid of 5)": training.proposer_alone(proposer, "medoid",
-                                                                num_candidates=5)}  # fmt: skip
-out = training.evaluate(training.held_out_env(cfg, 16, 1000), rows, ["ves"],
-                        seed=cfg.eval.seed, steps=1000)  # fmt: skip
+rows = {
+    "proposer alone (medoid of 5)": training.proposer_alone(proposer, "medoid", num_candidates=5)
+}
+out = training.evaluate(
+    training.held_out_env(cfg, 16, 1000), rows, ["ves"], seed=cfg.eval.seed, steps=1000
+)
 with open("rows.json", "w") as f:
     json.dump(out, f, indent=1, default=float)
