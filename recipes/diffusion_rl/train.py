@@ -11,6 +11,9 @@
    (and, with ``selection.include_actor``, the actor's own action); the selection rule executes
    the medoid unless a candidate's pessimistic Q beats it (``selection.anchor``), or the
    highest Q (``selection.anchor=null``, the paper).
+   With ``residual.bound > 0`` instead: the proposer alone's action (the medoid of
+   ``proposer.alone_candidates``) plus a bounded residual from the actor, which acts
+   (``torchrl_auv.training.residual``; no selection, no "RL" or rank rows).
 3. Training: TorchRL's ``SACLoss`` (actor, Q ensemble, temperature; the Q target on the
    candidate executed at the next state, ``selection.backup``) from a
    ``TensorDictReplayBuffer`` filled by a ``Collector``, on the executed actions.
@@ -36,45 +39,67 @@ def main(cfg: DictConfig) -> None:
     stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
     proposer = stage.proposer.to(cfg.device)
 
-    # 2. env, actor, SAC learner, the proposer-selector policy ranking with the live Q ensemble
+    # 2. env, actor, SAC learner, the policy that acts: the proposer-selector ranking with the
+    #    live Q ensemble, or (residual.bound > 0) a residual actor on the proposer alone's choice
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
-    actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
-    #    the rule (argmax, or anchored on the medoid) is shared by the selector and the
-    #    critics' backup (selection.backup=candidates: on the next state's candidates)
-    rule = training.selection_rule_from_config(cfg)
-    learner = training.sac_from_config(cfg, env, actor, rule=rule)
-    q_critic = QEnsembleCritic.from_loss(learner.loss)  # the min over the Q ensemble
-    policy = training.make_selection_policy(proposer, q_critic, mode="q",
-                                            actor=actor if cfg.selection.include_actor else None,
-                                            critic_out_key=q_critic.out_keys[0],
-                                            rule=rule)  # fmt: skip
+    bound = training.residual_bound(cfg)
+    if bound:  # the actor acts: SAC's own backup on it, no selection
+        actor = training.make_residual_actor(env, cfg.network.hidden, bound=bound)
+        learner = training.sac_from_config(cfg, env, actor.to(cfg.device))
+        policy = training.residual_policy(
+            proposer,
+            actor,
+            pick=cfg.proposer.alone_pick,
+            num_candidates=cfg.proposer.alone_candidates,
+        )
+    else:
+        actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
+        #    the rule (argmax, or anchored on the medoid) is shared by the selector and the
+        #    critics' backup (selection.backup=candidates: on the next state's candidates)
+        rule = training.selection_rule_from_config(cfg)
+        learner = training.sac_from_config(cfg, env, actor, rule=rule)
+        q_critic = QEnsembleCritic.from_loss(learner.loss)  # the min over the Q ensemble
+        competing = actor if cfg.selection.include_actor else None  # the actor's own action
+        policy = training.make_selection_policy(
+            proposer,
+            q_critic,
+            mode="q",
+            actor=competing,
+            critic_out_key=q_critic.out_keys[0],
+            rule=rule,
+        )
     buffer = training.buffer_from_config(cfg, run.dir)
     remaining = run.restore(learner.checkpoint_modules(), buffer)  # resume: the newest
-    next_keys = training.CANDIDATE_KEYS if training.selection_backup(cfg) == "candidates" else ()
-    training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
+    next_keys = training.next_state_keys(cfg)  # what the critics' backup reads of s'
+    if not bound:
+        training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
     # 3. collect with the policy, train from the buffer
     collector = training.collector_from_config(cfg, policy, env=env,
                                                total_frames=max(remaining, 1))  # fmt: skip
     run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
-        if next_keys:  # the next state's candidates, for the critics' backup
+        if bound:  # the prior's action at the next state, for the actor's next action
+            training.with_next_prior(data, policy[0])
+        elif next_keys:  # the next state's candidates, for the critics' backup
             training.with_next_candidates(data, proposer)
         buffer.extend(training.select_for_replay(data, next_keys))
         run.progress.frames += data.numel()
         for _ in range(cfg.optim.updates_per_batch):
             out = learner.step(buffer.sample().to(cfg.device))
             run.progress.updates += 1
-        training.start_deviating(rule, run.progress.frames, cfg)
+        if not bound:
+            training.start_deviating(rule, run.progress.frames, cfg)
         collector.update_policy_weights_()  # worker processes / Ray act with the new weights
         run.step(data, learner.metrics(out))
     facts = {**stage.facts, **run.finish(collector)}
 
     # 4. evaluation on held-out seeds: the framework, each rank alone (OA, CA1, ...), the actor
     #    alone, the proposer alone, the expert and random actions
-    policies = training.evaluation_policies_from_config(cfg, "diffusion_rl", policy, actor,
-                                                        proposer)  # fmt: skip
-    title = "Diffusion + Q selection + SAC"
+    policies = training.evaluation_policies_from_config(
+        cfg, "diffusion_rl", policy, None if bound else actor, proposer
+    )
+    title = "Diffusion + residual SAC" if bound else "Diffusion + Q selection + SAC"
     print(run.evaluate(policies, title=title, facts=facts).read_text())
 
 

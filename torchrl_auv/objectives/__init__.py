@@ -1,4 +1,5 @@
-"""Losses: the proposer's denoising loss, the Lyapunov actor-critic, candidate filtering.
+"""Losses: the proposer's denoising loss, the Lyapunov actor-critic, candidate filtering, SAC
+on the executed candidates or on a residual actor.
 
 Owns TorchRL ``LossModule`` classes; they read keys set with ``set_keys`` and work with any env
 whose data carries those keys.
@@ -17,6 +18,7 @@ from torchrl_auv.objectives.pretraining import (
     pretrain_proposer,
 )
 from torchrl_auv.objectives.q_filter import Q_REDUCTIONS, QEnsembleCritic
+from torchrl_auv.objectives.residual import ResidualSACLoss, residual_offset
 from torchrl_auv.objectives.selection import SELECTION_MODES, CandidateSelector
 from torchrl_auv.objectives.selection_rule import ANCHORS, SelectionRule
 
@@ -36,8 +38,10 @@ __all__ = [
     "LyapunovSpec",
     "PretrainResult",
     "QEnsembleCritic",
+    "ResidualSACLoss",
     "SelectionRule",
     "heldout_denoising_loss",
     "lyapunov_value",
     "pretrain_proposer",
+    "residual_offset",
 ]

@@ -13,6 +13,7 @@ module                      builds
 ``selection``               the proposer + selector policy, ranked candidates, the evaluation rows
 ``candidates``              the selection rule of ``cfg.selection``, the next state's candidates the
                             critics' candidate backup reads
+``residual``                the executed learner: a bounded residual actor on the prior's choice
 ``replay``                  the replay buffer and what it stores of a frame
 ``demonstration_replay``    SAC's expert demonstrations, half of each batch (RLPD)
 ``collectors``              TorchRL collectors: local, worker processes, Ray
@@ -34,6 +35,7 @@ from torchrl_auv.training.candidates import (
     NEXT_ANCHOR,
     NEXT_CANDIDATES,
     check_selection,
+    next_state_values,
     selection_backup,
     selection_rule_from_config,
     start_deviating,
@@ -129,6 +131,17 @@ from torchrl_auv.training.replay import (
     make_replay_buffer,
     select_for_replay,
 )
+from torchrl_auv.training.residual import (
+    NEXT_PRIOR_ACTION,
+    PRIOR_ACTION,
+    RESIDUAL_KEYS,
+    check_residual,
+    make_residual_actor,
+    next_state_keys,
+    residual_bound,
+    residual_policy,
+    with_next_prior,
+)
 from torchrl_auv.training.run import Progress, Run, finish_run, prepare_resume, start_run
 from torchrl_auv.training.run_lock import RunFolderInUse
 from torchrl_auv.training.sac import (
@@ -171,10 +184,13 @@ __all__ = [
     "LYAPUNOV_RAW",
     "NEXT_ANCHOR",
     "NEXT_CANDIDATES",
+    "NEXT_PRIOR_ACTION",
     "OBSERVATION",
     "POLICIES",
+    "PRIOR_ACTION",
     "Q_VALUE",
     "REPLAY_KEYS",
+    "RESIDUAL_KEYS",
     "SAC_LOGGED_KEYS",
     "AdvisorLoop",
     "ArtefactCache",
@@ -201,6 +217,7 @@ __all__ = [
     "check_endpoint",
     "check_ray_address",
     "check_ray_backend",
+    "check_residual",
     "check_selection",
     "checkpoint_problems",
     "close_logger",
@@ -240,8 +257,11 @@ __all__ = [
     "make_policy",
     "make_q_critic",
     "make_replay_buffer",
+    "make_residual_actor",
     "make_sac_loss",
     "make_selection_policy",
+    "next_state_keys",
+    "next_state_values",
     "observation_action_dims",
     "peak_rss_mb",
     "prepare_resume",
@@ -250,6 +270,8 @@ __all__ = [
     "proposer_from_config",
     "random_policy",
     "reference_policies",
+    "residual_bound",
+    "residual_policy",
     "resume_latest",
     "sac_from_config",
     "sac_optimisers",
@@ -264,6 +286,7 @@ __all__ = [
     "truncate_curve",
     "values_key",
     "with_next_candidates",
+    "with_next_prior",
     "write_eval",
     "write_summary",
 ]

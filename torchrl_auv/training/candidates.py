@@ -26,7 +26,7 @@ Examples:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import torch
 from tensordict import TensorDictBase
@@ -43,6 +43,7 @@ __all__ = [
     "NEXT_ANCHOR",
     "NEXT_CANDIDATES",
     "check_selection",
+    "next_state_values",
     "selection_backup",
     "selection_rule_from_config",
     "start_deviating",
@@ -99,29 +100,45 @@ def start_deviating(rule: SelectionRule, frames: int, cfg: Mapping) -> None:
 
 
 @torch.no_grad()
+def next_state_values(
+    data: TensorDictBase,
+    current: Sequence[torch.Tensor],
+    recompute: Callable[[TensorDictBase], Sequence[torch.Tensor]],
+) -> list[torch.Tensor]:
+    """Per-frame values ``current`` (each ``[*B, T, ...]``, time last of the batch dims) moved
+    to each frame's next state: frame t's next state is frame t+1's state, so its values are
+    frame t+1's; where it is not (the last frame of each row, and a frame that ended its
+    episode, after which the env reset), ``recompute`` reads the stored next states (one call
+    for all of them, ``data["next"]`` rows) and returns the values in the same order."""
+    time = data.ndim - 1
+    moved = [value.roll(-1, time) for value in current]
+    own = data["next", "done"].reshape(data.batch_size).clone()
+    own.select(time, -1).fill_(True)
+    if own.any():
+        for value, fresh in zip(moved, recompute(data["next"][own]), strict=True):
+            value[own] = fresh.to(value.dtype)
+    return moved
+
+
+@torch.no_grad()
 def with_next_candidates(data: TensorDictBase, proposer: DiffusionProposer) -> TensorDictBase:
     """``data`` (a collected batch ``[*B, T]``, time last, whose policy's proposer wrote
     :data:`CANDIDATES` at every frame) with :data:`NEXT_CANDIDATES` and :data:`NEXT_ANCHOR`
-    set: frame t's next state is frame t+1's state, so its candidates are frame t+1's; where
-    it is not (the last frame of each row, and a frame that ended its episode, after which the
-    env reset), ``proposer`` proposes on the stored next state (one call for all of them).
-    Returns ``data``, written in place."""
+    set (:func:`next_state_values`: ``proposer`` proposes on the stored next states that are
+    not the following frame's). Returns ``data``, written in place."""
     candidates = data.get(CANDIDATES, None)
     if candidates is None:
         raise ValueError(
             f"data lack the proposer's candidates {CANDIDATES!r}: collect with a "
             "policy whose proposer writes them (make_selection_policy)"
         )
-    first, medoid = candidates[..., 0, :], medoid_index(candidates)
-    time = data.ndim - 1
-    next_first, next_medoid = first.roll(-1, time), medoid.roll(-1, time)
-    own = data["next", "done"].reshape(data.batch_size).clone()
-    own.select(time, -1).fill_(True)
-    if own.any():
-        rows = data["next"][own].select(*proposer.in_keys).copy()
-        proposed = proposer(rows).get(proposer.candidates_key)
-        next_first[own] = proposed[..., 0, :].to(first.dtype)
-        next_medoid[own] = medoid_index(proposed)
+
+    def propose(rows: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
+        proposed = proposer(rows.select(*proposer.in_keys).copy()).get(proposer.candidates_key)
+        return proposed[..., 0, :], medoid_index(proposed)
+
+    current = (candidates[..., 0, :], medoid_index(candidates))
+    next_first, next_medoid = next_state_values(data, current, propose)
     data.set(NEXT_CANDIDATES, next_first)
     data.set(NEXT_ANCHOR, next_medoid)
     return data

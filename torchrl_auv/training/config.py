@@ -20,6 +20,7 @@ from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
 from torchrl_auv.training.candidates import check_selection
 from torchrl_auv.training.collectors import COLLECTOR_BACKENDS, check_ray_backend
+from torchrl_auv.training.residual import check_residual
 
 __all__ = [
     "LOGGER_BACKENDS",
@@ -111,6 +112,9 @@ def check_choices(cfg: Mapping) -> None:
     selection = _get(cfg, "selection")
     if isinstance(selection, Mapping):
         check_selection(selection)
+    residual = _get(cfg, "residual")
+    if isinstance(residual, Mapping):
+        check_residual(residual, _get(cfg, "proposer.alone_replan_every"))
     replan, horizon = _get(cfg, "proposer.alone_replan_every"), _get(cfg, "proposer.horizon")
     if replan is not None and horizon is not None and replan > horizon:
         raise ValueError(f"proposer.alone_replan_every must be <= proposer.horizon ({horizon}): "

@@ -20,7 +20,7 @@ from torchrl.modules import ProbabilisticActor
 from torchrl.objectives import SACLoss, SoftUpdate
 
 from torchrl_auv.envs import DataCollectionEnv
-from torchrl_auv.objectives import CandidateBackupSACLoss, SelectionRule
+from torchrl_auv.objectives import CandidateBackupSACLoss, ResidualSACLoss, SelectionRule
 from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.keys import ACTION, AGENTS, Q_VALUE
 from torchrl_auv.training.learner import Learner
@@ -29,11 +29,12 @@ from torchrl_auv.training.networks import (
     make_q_critic,
     observation_action_dims,
 )
+from torchrl_auv.training.residual import residual_bound
 
 __all__ = ["SAC_LOGGED_KEYS", "make_sac_loss", "sac_from_config", "sac_optimisers"]
 
 #: The ``SACLoss`` outputs a recipe logs (``train/<key>``).
-SAC_LOGGED_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy")
+SAC_LOGGED_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy", "residual")
 
 
 def make_sac_loss(
@@ -48,6 +49,7 @@ def make_sac_loss(
     loss_function: str = "smooth_l1",
     backup: str = "actor",
     rule: SelectionRule | None = None,
+    residual_coef: float | None = None,
 ) -> tuple[SACLoss, SoftUpdate]:
     """TorchRL's ``SACLoss`` on the agents layout (reward ``== -cost``) and its target updater.
 
@@ -55,11 +57,15 @@ def make_sac_loss(
     (``smooth_l1``, SACLoss's own default, or ``l2``). ``backup="candidates"``: the Q target
     bootstraps on the candidate the selector (``rule``) executes at the next state
     (:class:`~torchrl_auv.objectives.CandidateBackupSACLoss`, a ``SACLoss``).
+    ``residual_coef``: ``actor`` is a residual actor
+    (:func:`~torchrl_auv.training.make_residual_actor`), pulled toward the prior with this
+    weight (:class:`~torchrl_auv.objectives.ResidualSACLoss`).
     """
-    loss = CandidateBackupSACLoss(
+    residual = {} if residual_coef is None else {"coef": residual_coef}
+    loss = (ResidualSACLoss if residual else CandidateBackupSACLoss)(
         actor_network=actor, qvalue_network=critic, num_qvalue_nets=num_qvalue_nets,
         alpha_init=alpha_init, target_entropy=-float(observation_action_dims(env)[1]),
-        delay_qvalue=True, loss_function=loss_function, backup=backup, rule=rule,
+        delay_qvalue=True, loss_function=loss_function, backup=backup, rule=rule, **residual,
     )  # fmt: skip
     loss.set_keys(action=ACTION, state_action_value=Q_VALUE, reward=(AGENTS, "reward"),
                   done=(AGENTS, "done"), terminated=(AGENTS, "terminated"),
@@ -80,20 +86,30 @@ def sac_optimisers(loss, optim: Mapping) -> dict[str, torch.optim.Optimizer]:
     }  # fmt: skip
 
 
-def sac_from_config(cfg: Mapping, env: DataCollectionEnv, actor: ProbabilisticActor,
-                    rule: SelectionRule | None = None) -> Learner:  # fmt: skip
+def sac_from_config(
+    cfg: Mapping,
+    env: DataCollectionEnv,
+    actor: ProbabilisticActor,
+    rule: SelectionRule | None = None,
+) -> Learner:
     """The SAC learner of a recipe config: a Q ensemble of ``cfg.network.critics`` (absent: 2,
     SAC's twin) critics of ``cfg.network.hidden`` (``cfg.network.layer_norm``, absent: off),
     :func:`make_sac_loss` with ``cfg.optim``'s gamma, initial temperature, tau and Q loss,
-    ``cfg.selection.backup`` (absent: ``actor``) and the selector's ``rule``,
+    ``cfg.selection.backup`` (absent: ``actor``) and the selector's ``rule``; with
+    ``cfg.residual.bound > 0`` ``actor`` is a residual actor held near the prior with
+    ``cfg.residual.coef`` (the backup then on the actor, which acts);
     :func:`sac_optimisers`, logging :data:`SAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent:
     ``False``) compiles the update (:class:`~torchrl_auv.training.Learner`)."""
     optim, network = cfg["optim"], cfg["network"]
     critic = make_q_critic(env, network["hidden"], layer_norm=critic_layer_norm(cfg))
+    residual = cfg.get("residual") or {}
+    on_prior = residual_bound(cfg) > 0
     loss, target_updater = make_sac_loss(
         actor, critic.to(cfg["device"]), env, gamma=optim["gamma"],
         alpha_init=optim["alpha_init"], tau=optim["tau"], loss_function=optim["loss_function"],
-        num_qvalue_nets=int(network.get("critics", 2)), backup=selection_backup(cfg), rule=rule,
+        num_qvalue_nets=int(network.get("critics", 2)),
+        backup="actor" if on_prior else selection_backup(cfg), rule=rule,
+        residual_coef=float(residual.get("coef", 1.0)) if on_prior else None,
     )  # fmt: skip
     return Learner(
         loss,

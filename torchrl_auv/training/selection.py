@@ -27,6 +27,7 @@ from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, SelectionRule
 from torchrl_auv.training.evaluation import SameRowAs, reference_policies
 from torchrl_auv.training.keys import ACTION, ACTOR_ACTION, AGENTS, OBSERVATION
+from torchrl_auv.training.residual import residual_bound
 
 __all__ = [
     "RankedCandidate",
@@ -138,7 +139,7 @@ def evaluation_policies(
     rows = {name: policy, "proposer alone": alone}
     if actor is not None:
         rows["RL"] = actor
-    with_actor = bool(policy[-1].include_actor_action)
+    with_actor = ranks and bool(policy[-1].include_actor_action)
     for rank in range(proposer.num_candidates + with_actor if ranks else 0):
         rows["OA" if rank == 0 else f"CA{rank}"] = RankedCandidate(policy, rank)
     if ranks and not with_actor:  # rank 0 is what the framework executes: the same row
@@ -151,10 +152,11 @@ def evaluation_policies_from_config(
 ) -> dict:
     """:func:`evaluation_policies` with the config's proposer-alone values
     (``proposer.alone_pick``, ``alone_candidates``, ``alone_replan_every``) and ``eval.ranks``,
-    followed by the reference rows (the scripted expert, random actions)."""
+    followed by the reference rows (the scripted expert, random actions). A residual actor's
+    policy (``cfg.residual.bound > 0``) has no ranks."""
     p = cfg["proposer"]
     rows = evaluation_policies(name, policy, actor, proposer, pick=p["alone_pick"],
                                alone_candidates=p["alone_candidates"],
                                alone_replan_every=p["alone_replan_every"],
-                               ranks=cfg["eval"]["ranks"])  # fmt: skip
+                               ranks=cfg["eval"]["ranks"] and not residual_bound(cfg))  # fmt: skip
     return {**rows, **reference_policies()}
