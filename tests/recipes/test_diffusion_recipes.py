@@ -86,16 +86,21 @@ def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_every_recipe_with_the_same_values_reuses_one_first_stage(tmp_path):
     """diffusion builds the first stage, diffusion_rl with the same values reuses it (other
-    acting values included), other values build their own; proposer.path reuses a file and
+    acting values included: a residual actor), other values build their own; proposer.path reuses a file and
     a missing one is an error."""
     cache = tmp_path / "cache"
     first = _run("diffusion", tmp_path / "first", f"proposer.cache_dir={cache}")
     assert first.returncode == 0, first.stderr[-3000:]
     (stage,) = cache.glob("ideal-*")
     second = _run("diffusion_rl", tmp_path / "second", f"proposer.cache_dir={cache}",
-                  "proposer.num_candidates=3", *RL_TINY)  # fmt: skip
+                  "proposer.num_candidates=3", "residual.bound=0.2", *RL_TINY)  # fmt: skip
     assert second.returncode == 0, second.stderr[-3000:]
-    assert f"first stage: {stage} (reused" in (tmp_path / "second" / "summary.md").read_text()
+    summary = (tmp_path / "second" / "summary.md").read_text()
+    assert f"first stage: {stage} (reused" in summary
+    # the residual actor acts on the proposer alone's choice: no selection ranks, no actor alone
+    assert summary.startswith("# Diffusion + residual SAC")
+    policies = [row["policy"] for row in _eval_rows(tmp_path / "second")]
+    assert policies == ["diffusion_rl", "proposer alone", "expert", "idle", "random"]
     assert len(list(cache.glob("ideal-*"))) == 1
     other = _run("diffusion", tmp_path / "third", f"proposer.cache_dir={cache}", "seed=1")
     assert other.returncode == 0, other.stderr[-3000:]

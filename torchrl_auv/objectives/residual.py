@@ -81,7 +81,7 @@ class ResidualSACLoss(CandidateBackupSACLoss):
             set_exploration_type(ExplorationType.DETERMINISTIC),
             self.actor_network_params.to_module(self.actor_network),
         ):
-            dist = self.actor_network.get_dist(tensordict.copy())
+            dist = self.actor_network.get_dist(tensordict.select(*self.actor_network.in_keys))
         offset = residual_offset(dist)
         out.set("loss_residual", self.coef * offset.pow(2).mean())
         out.set("residual", offset.detach().abs().mean())

@@ -60,7 +60,8 @@ _LOW, _HIGH = (AGENTS, "prior", "low"), (AGENTS, "prior", "high")
 
 
 class _ObsPriorMLP(nn.Module):
-    """loc and scale of the residual from the observation and the prior's action."""
+    """loc and scale of the residual from the observation and the prior's action; loc's
+    output layer starts at zero (a zero residual: the deterministic action is the prior's)."""
 
     def __init__(self, obs_dim: int, act_dim: int, hidden: Sequence[int]) -> None:
         super().__init__()
@@ -70,6 +71,10 @@ class _ObsPriorMLP(nn.Module):
             num_cells=list(hidden),
             activation_class=nn.ReLU,
         )
+        last = [m for m in mlp.modules() if isinstance(m, nn.Linear)][-1]
+        with torch.no_grad():  # loc starts at 0: the untrained actor's action is the prior's
+            last.weight[:act_dim].zero_()
+            last.bias[:act_dim].zero_()
         self.net = nn.Sequential(mlp, NormalParamExtractor())
 
     def forward(self, obs: torch.Tensor, prior: torch.Tensor) -> tuple[torch.Tensor, ...]:
@@ -92,7 +97,8 @@ def make_residual_actor(
 ) -> ProbabilisticActor:
     """Per-AUV residual actor (shared weights): a ``TanhNormal`` on ``[a0 - bound, a0 + bound]``
     with ``a0`` the prior's action (:data:`PRIOR_ACTION`); its deterministic action is
-    ``a0 + bound * tanh(loc)``. ``bound`` is in action units (actions lie in [-1, 1]; the env
+    ``a0 + bound * tanh(loc)``, and ``loc`` starts at 0: untrained, it executes the prior's
+    action (a safe start; SAC's exploration samples around it). ``bound`` is in action units (actions lie in [-1, 1]; the env
     clips what leaves them). Reads ``("agents", "observation")`` and :data:`PRIOR_ACTION`,
     writes ``("agents", "action")``."""
     if isinstance(bound, bool) or not isinstance(bound, int | float) or not 0 < bound <= 2:
