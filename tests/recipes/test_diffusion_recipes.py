@@ -86,8 +86,8 @@ def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_every_recipe_with_the_same_values_reuses_one_first_stage(tmp_path):
     """diffusion builds the first stage, diffusion_rl with the same values reuses it (other
-    acting values included: a residual actor), other values build their own; proposer.path reuses a file and
-    a missing one is an error."""
+    acting values included: a residual actor), other values build their own; proposer.path
+    reuses a file and a missing one is an error."""
     cache = tmp_path / "cache"
     first = _run("diffusion", tmp_path / "first", f"proposer.cache_dir={cache}")
     assert first.returncode == 0, first.stderr[-3000:]
