@@ -99,8 +99,8 @@ def make_residual_actor(
     with ``a0`` the prior's action (:data:`PRIOR_ACTION`); its deterministic action is
     ``a0 + bound * tanh(loc)``, and ``loc`` starts at 0: untrained, it executes the prior's
     action (a safe start; SAC's exploration samples around it). ``bound`` is in action units
-    (actions lie in [-1, 1]; the env clips what leaves them). Reads ``("agents", "observation")`` and :data:`PRIOR_ACTION`,
-    writes ``("agents", "action")``."""
+    (actions lie in [-1, 1]; the env clips what leaves them). Reads
+    ``("agents", "observation")`` and :data:`PRIOR_ACTION`, writes ``("agents", "action")``."""
     if isinstance(bound, bool) or not isinstance(bound, int | float) or not 0 < bound <= 2:
         raise ValueError(f"bound must be a number in (0, 2] (action units), got {bound!r}")
     obs_dim, act_dim = observation_action_dims(env)
