@@ -10,6 +10,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from torchrl_auv import training
 from torchrl_auv.modules import DiffusionProposer
+from torchrl_auv.objectives import ResidualLACLoss
 
 BOUND = 0.25
 
@@ -152,3 +153,25 @@ def test_a_residual_policy_is_evaluated_beside_its_prior_without_ranks(collected
     proposer = policy[0].proposer
     rows = training.evaluation_policies_from_config(cfg, "diffusion_rl", policy, None, proposer)
     assert list(rows) == ["diffusion_rl", "proposer alone", "expert", "idle", "random"]
+
+
+def test_lac_trains_the_residual_actor_with_its_constraint_on_the_executed_action(collected):
+    env, policy, data = collected
+    data = training.with_next_prior(data.clone(), policy[0])
+    frames = training.select_for_replay(data, training.RESIDUAL_KEYS)
+    cfg = _sac_config(bound=BOUND, coef=2.0)
+    cfg.optim.update({"lambda_max": 1.0, "dual_lr": 1e-3})
+    cfg.update(
+        {
+            "advisor": {"form": "softplus", "stability_weight": 0.1},
+            "lyapunov": {"cost": "stability"},
+        }
+    )
+    actor = training.make_residual_actor(env, (16,), bound=BOUND)
+    critic = training.make_lyapunov_critic(env, (16,))
+    learner = training.lac_from_config(cfg, env, actor, critic)
+    assert isinstance(learner.loss, ResidualLACLoss)
+    assert learner.loss.backup == "actor"  # L bootstraps on the action the actor executes
+    out = learner.step(frames.clone())
+    assert out["loss_lyapunov"].isfinite() and out["loss_residual"] == 0  # it starts at 0
+    assert {"train/residual", "train/violation_rate"} <= set(learner.metrics(out))

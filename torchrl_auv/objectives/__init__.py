@@ -18,7 +18,12 @@ from torchrl_auv.objectives.pretraining import (
     pretrain_proposer,
 )
 from torchrl_auv.objectives.q_filter import Q_REDUCTIONS, QEnsembleCritic
-from torchrl_auv.objectives.residual import ResidualSACLoss, residual_offset
+from torchrl_auv.objectives.residual import (
+    ResidualLACLoss,
+    ResidualPenalty,
+    ResidualSACLoss,
+    residual_offset,
+)
 from torchrl_auv.objectives.selection import SELECTION_MODES, CandidateSelector
 from torchrl_auv.objectives.selection_rule import ANCHORS, SelectionRule
 
@@ -38,6 +43,8 @@ __all__ = [
     "LyapunovSpec",
     "PretrainResult",
     "QEnsembleCritic",
+    "ResidualLACLoss",
+    "ResidualPenalty",
     "ResidualSACLoss",
     "SelectionRule",
     "heldout_denoising_loss",

@@ -1,11 +1,12 @@
-r"""``ResidualSACLoss``: SAC for a residual actor on the prior's choice, held near it.
+r"""SAC and LAC for a residual actor on the prior's choice, held near it.
 
 A residual actor (:func:`~torchrl_auv.training.make_residual_actor`) samples the executed
 action from a ``TanhNormal`` on :math:`[a_0 - b, a_0 + b]`, with :math:`a_0` the prior's
 choice (the proposer alone's action) and :math:`b` the residual bound: its deterministic action
 is :math:`a_0 + b \tanh(\mu)`, the prior's own where :math:`\mu = 0`. It is the policy that
-acts, so TorchRL's ``SACLoss`` trains it and its critics unchanged (the critics bootstrap on
-its next action, which is what is executed). The loss adds a pull toward the prior,
+acts, so TorchRL's ``SACLoss`` (:class:`ResidualSACLoss`) or the Lyapunov actor-critic
+(:class:`ResidualLACLoss`) trains it and its critics unchanged (the critics bootstrap on its
+next action, which is what is executed). :class:`ResidualPenalty` adds a pull toward the prior,
 
 .. math::
 
@@ -45,8 +46,9 @@ from tensordict import TensorDictBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from torchrl_auv.objectives.candidate_backup import CandidateBackupSACLoss
+from torchrl_auv.objectives.lyapunov import LyapunovActorCriticLoss
 
-__all__ = ["ResidualSACLoss", "residual_offset"]
+__all__ = ["ResidualLACLoss", "ResidualPenalty", "ResidualSACLoss", "residual_offset"]
 
 
 def residual_offset(dist) -> torch.Tensor:
@@ -58,15 +60,15 @@ def residual_offset(dist) -> torch.Tensor:
     return (dist.deterministic_sample - centre) / half
 
 
-class ResidualSACLoss(CandidateBackupSACLoss):
-    """TorchRL's ``SACLoss`` (through :class:`CandidateBackupSACLoss`, ``backup="actor"`` by
-    default) plus ``loss_residual`` (module docstring) and the logged ``residual`` (the mean
-    absolute offset, in bounds).
+class ResidualPenalty:
+    """Mixin for a TorchRL ``LossModule`` with an ``actor_network`` (a bounded residual actor):
+    its ``forward`` adds ``loss_residual`` (module docstring) and the logged ``residual`` (the
+    mean absolute offset, in bounds) to the loss's own outputs.
 
     Args:
-        *args: ``SACLoss``'s positional arguments (the actor a bounded residual actor).
+        *args: the loss's positional arguments.
         coef: the weight ``c >= 0`` of the pull toward the prior (0: none).
-        **kwargs: :class:`CandidateBackupSACLoss`'s keyword arguments.
+        **kwargs: the loss's keyword arguments.
     """
 
     def __init__(self, *args, coef: float = 1.0, **kwargs) -> None:
@@ -77,12 +79,25 @@ class ResidualSACLoss(CandidateBackupSACLoss):
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         out = super().forward(tensordict)
+        actor = self.actor_network
         with (
             set_exploration_type(ExplorationType.DETERMINISTIC),
-            self.actor_network_params.to_module(self.actor_network),
+            self.actor_network_params.to_module(actor),
         ):
-            dist = self.actor_network.get_dist(tensordict.select(*self.actor_network.in_keys))
+            dist = actor.get_dist(tensordict.select(*actor.in_keys))
         offset = residual_offset(dist)
         out.set("loss_residual", self.coef * offset.pow(2).mean())
         out.set("residual", offset.detach().abs().mean())
         return out
+
+
+class ResidualSACLoss(ResidualPenalty, CandidateBackupSACLoss):
+    """TorchRL's ``SACLoss`` (through :class:`CandidateBackupSACLoss`, ``backup="actor"`` by
+    default: the residual actor acts) with :class:`ResidualPenalty`'s pull toward the prior
+    (``coef``)."""
+
+
+class ResidualLACLoss(ResidualPenalty, LyapunovActorCriticLoss):
+    """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` (``backup="actor"``: the
+    residual actor acts, so the Lyapunov critic and its constraint are on the executed action)
+    with :class:`ResidualPenalty`'s pull toward the prior (``coef``)."""

@@ -23,7 +23,7 @@ from torchrl.modules import ProbabilisticActor
 from torchrl.objectives import SoftUpdate
 
 from torchrl_auv import advisor as advisors
-from torchrl_auv.objectives import LyapunovActorCriticLoss, SelectionRule
+from torchrl_auv.objectives import LyapunovActorCriticLoss, ResidualLACLoss, SelectionRule
 from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.checkpointing import SpecState
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
@@ -33,6 +33,7 @@ from torchrl_auv.training.networks import (
     make_q_critic,
     observation_action_dims,
 )
+from torchrl_auv.training.residual import residual_bound
 
 __all__ = [
     "LAC_LOGGED_KEYS",
@@ -47,7 +48,7 @@ __all__ = [
 
 #: The loss outputs a recipe logs (``train/<key>``; the task critic's with ``cost="stability"``).
 LAC_LOGGED_KEYS = ("loss_actor", "loss_lyapunov", "lambda", "beta", "violation_rate", "delta_l",
-                   "loss_qvalue", "qvalue")  # fmt: skip
+                   "loss_qvalue", "qvalue", "residual")  # fmt: skip
 
 
 #: ``lyapunov.cost`` choices: which cost the Lyapunov critic learns (the loss's docstring)
@@ -69,6 +70,7 @@ def make_lac_loss(
     layer_norm: bool = False,
     backup: str = "actor",
     rule: SelectionRule | None = None,
+    residual_coef: float | None = None,
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
     (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
@@ -80,14 +82,18 @@ def make_lac_loss(
     ``hidden`` and ``layer_norm``) learns ``("agents", "cost")`` and gives the actor the task.
     The loss (the task critic and the dual variables too) is on the actor's device.
     ``backup`` and ``rule``: what both critics bootstrap on (the loss's arguments of those
-    names)."""
+    names). ``residual_coef``: ``actor`` is a residual actor
+    (:func:`~torchrl_auv.training.make_residual_actor`), pulled toward the prior with this
+    weight (:class:`~torchrl_auv.objectives.ResidualLACLoss`; ``backup`` should be
+    ``"actor"``: the actor acts)."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
     qvalue = make_q_critic(env, hidden, layer_norm) if cost == "stability" else None
-    loss = LyapunovActorCriticLoss(
+    residual = {} if residual_coef is None else {"coef": residual_coef}
+    loss = (ResidualLACLoss if residual else LyapunovActorCriticLoss)(
         actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
         target_entropy=-float(observation_action_dims(env)[1]), loss_function=loss_function,
-        qvalue_network=qvalue, backup=backup, rule=rule,
+        qvalue_network=qvalue, backup=backup, rule=rule, **residual,
     )  # fmt: skip
     lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
     loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=lyapunov_cost,
@@ -144,8 +150,11 @@ def lac_from_config(
     (:class:`~torchrl_auv.training.Learner`). ``critic`` is the Lyapunov critic the selector
     ranks with too (the task critic takes ``cfg.network.layer_norm``, absent: off);
     ``cfg.selection.backup`` (absent: ``actor``) with the selector's ``rule`` is what the
-    critics bootstrap on."""
+    critics bootstrap on; with ``cfg.residual.bound > 0`` ``actor`` is a residual actor held
+    near the prior with ``cfg.residual.coef`` (the backup then on the actor, which acts)."""
     optim, advisor = cfg["optim"], cfg["advisor"]
+    residual = cfg.get("residual") or {}
+    on_prior = residual_bound(cfg) > 0
     loss = make_lac_loss(
         actor,
         critic,
@@ -158,8 +167,9 @@ def lac_from_config(
         cost=cfg["lyapunov"]["cost"],
         hidden=cfg["network"]["hidden"],
         layer_norm=critic_layer_norm(cfg),
-        backup=selection_backup(cfg),
+        backup="actor" if on_prior else selection_backup(cfg),
         rule=rule,
+        residual_coef=float(residual.get("coef", 1.0)) if on_prior else None,
     )
     target_updater = SoftUpdate(loss, tau=optim["tau"])
     return Learner(
