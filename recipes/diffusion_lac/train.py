@@ -6,7 +6,10 @@
    by the diffusion recipes and sweep jobs): scripted-expert demonstrations, proposer
    pretraining and DAgger rounds, or ``proposer.path``.
 2. Acting: the proposer proposes K action chunks per AUV; the Lyapunov critic scores their
-   first actions and the actor's own action; the lowest L is executed.
+   first actions and the actor's own action; the lowest L is executed. With
+   ``residual.bound > 0`` instead: the proposer alone's action (the medoid of
+   ``proposer.alone_candidates``) plus a bounded residual from the actor, which acts and which
+   L constrains (``torchrl_auv.training.residual``; no selection, no "RL" or rank rows).
 3. Training: ``LyapunovActorCriticLoss`` (actor, Lyapunov critic, dual variables lambda and
    beta) from a ``TensorDictReplayBuffer`` filled by a ``Collector``; the advisor (rule-based
    by default, or any OpenAI-compatible endpoint) picks the Lyapunov form and weight at the
@@ -37,32 +40,54 @@ def main(cfg: DictConfig) -> None:
     # 2. env, actor, Lyapunov critic, LAC learner, the proposer-selector policy (ranking with
     #    the live critic through the spec the loss owns), the advisor loop
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
-    actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
     critic = training.make_lyapunov_critic(
         env, cfg.network.hidden, layer_norm=training.critic_layer_norm(cfg)
     )
     critic = critic.to(cfg.device)
-    #    the rule (argmin, or anchored on the medoid) is shared by the selector and the
-    #    critics' backup (selection.backup=candidates: on the next state's candidates)
-    rule = training.selection_rule_from_config(cfg)
-    learner = training.lac_from_config(cfg, env, actor, critic, rule=rule)
-    policy = training.make_selection_policy(proposer, critic, mode="lyapunov", loss=learner.loss,
-                                            actor=actor if cfg.selection.include_actor else None,
-                                            critic_out_key=training.LYAPUNOV_RAW,
-                                            rule=rule)  # fmt: skip
+    bound = training.residual_bound(cfg)
+    if bound:  # the actor acts: L bootstraps on it and constrains it; no selection
+        actor = training.make_residual_actor(env, cfg.network.hidden, bound=bound)
+        learner = training.lac_from_config(cfg, env, actor.to(cfg.device), critic)
+        #    the executed action scored with L too (the Lyapunov trace reads it)
+        policy = training.residual_policy(
+            proposer,
+            actor,
+            pick=cfg.proposer.alone_pick,
+            num_candidates=cfg.proposer.alone_candidates,
+            lyapunov=(critic, learner.loss),
+        )
+    else:
+        actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
+        #    the rule (argmin, or anchored on the medoid) is shared by the selector and the
+        #    critics' backup (selection.backup=candidates: on the next state's candidates)
+        rule = training.selection_rule_from_config(cfg)
+        learner = training.lac_from_config(cfg, env, actor, critic, rule=rule)
+        competing = actor if cfg.selection.include_actor else None  # the actor's own action
+        policy = training.make_selection_policy(
+            proposer,
+            critic,
+            mode="lyapunov",
+            loss=learner.loss,
+            actor=competing,
+            critic_out_key=training.LYAPUNOV_RAW,
+            rule=rule,
+        )
     advising = training.AdvisorLoop(cfg, run.dir, run.logger, learner.loss)
     buffer = training.buffer_from_config(cfg, run.dir)
     remaining = run.restore({**learner.checkpoint_modules(), **advising.checkpoint_modules()},
                             buffer)  # resume: the newest  # fmt: skip
-    next_keys = training.CANDIDATE_KEYS if training.selection_backup(cfg) == "candidates" else ()
-    training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
+    next_keys = training.next_state_keys(cfg)  # what the critics' backup reads of s'
+    if not bound:
+        training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
     # 3. collect with the policy, train from the buffer, consult the advisor
     collector = training.collector_from_config(cfg, policy, env=env,
                                                total_frames=max(remaining, 1))  # fmt: skip
     run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
-        if next_keys:  # the next state's candidates, for the critics' backup
+        if bound:  # the prior's action at the next state, for the actor's next action
+            training.with_next_prior(data, policy[0])
+        elif next_keys:  # the next state's candidates, for the critics' backup
             training.with_next_candidates(data, proposer)
         buffer.extend(training.select_for_replay(data, next_keys))
         run.progress.frames += data.numel()
@@ -70,7 +95,8 @@ def main(cfg: DictConfig) -> None:
             out = learner.step(buffer.sample().to(cfg.device))
             run.progress.updates += 1
         metrics = {**learner.metrics(out), **advising.step(run.progress.frames, data, out)}
-        training.start_deviating(rule, run.progress.frames, cfg)
+        if not bound:
+            training.start_deviating(rule, run.progress.frames, cfg)
         collector.update_policy_weights_()  # workers: new weights and Lyapunov form
         run.step(data, metrics, learner.loss.spec)
     facts = {**stage.facts, **run.finish(collector)}
@@ -85,9 +111,11 @@ def main(cfg: DictConfig) -> None:
     print("\n".join(f"plot: {path}" for path in report.plot_run(cfg, run.dir, policy)))
     # the executed candidate's Lyapunov value along held-out episodes (Fig. 10-11)
     print(f"Lyapunov trace: {report.write_lyapunov_trace(cfg, run.dir, policy)}")
-    policies = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor,
-                                                        proposer)  # fmt: skip
-    print(run.evaluate(policies, title="Diffusion + LAC", facts=facts).read_text())
+    policies = training.evaluation_policies_from_config(
+        cfg, "diffusion_lac", policy, None if bound else actor, proposer
+    )
+    title = "Diffusion + residual LAC" if bound else "Diffusion + LAC"
+    print(run.evaluate(policies, title=title, facts=facts).read_text())
 
 
 if __name__ == "__main__":

@@ -66,9 +66,15 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
 
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_diffusion_lac_writes_the_advisor_log_and_plots(tmp_path):
+    """With a residual actor (the selection's run is the tiny test above): the advisor's spec
+    reaches the loss, the trace scores the executed action."""
     run_dir = tmp_path / "run"
-    result = _run("diffusion_lac", run_dir, *RL_TINY, "advisor.cooldown=0")
+    result = _run("diffusion_lac", run_dir, *RL_TINY, "advisor.cooldown=0", "residual.bound=0.2")
     assert result.returncode == 0, result.stderr[-3000:]
+    assert (run_dir / "summary.md").read_text().startswith("# Diffusion + residual LAC")
+    with open(run_dir / "lyapunov_trace.csv") as handle:
+        trace = list(csv.DictReader(handle))
+    assert len(trace) == 10 and all(float(row["mean"]) == float(row["mean"]) for row in trace)
     records = [json.loads(line) for line in (run_dir / "advisor.jsonl").read_text().splitlines()]
     # consulted at the start (frame 100: after the first batch), each record with a decision
     assert records[0]["trigger"] == "start" and records[0]["frame"] == 100

@@ -10,7 +10,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from torchrl_auv import training
 from torchrl_auv.modules import DiffusionProposer
-from torchrl_auv.objectives import ResidualLACLoss
+from torchrl_auv.objectives import LyapunovSpec, ResidualLACLoss, lyapunov_value
 
 BOUND = 0.25
 
@@ -175,3 +175,21 @@ def test_lac_trains_the_residual_actor_with_its_constraint_on_the_executed_actio
     out = learner.step(frames.clone())
     assert out["loss_lyapunov"].isfinite() and out["loss_residual"] == 0  # it starts at 0
     assert {"train/residual", "train/violation_rate"} <= set(learner.metrics(out))
+
+
+def test_the_lac_policy_scores_the_executed_action_with_the_losss_lyapunov_spec(collected):
+    env, policy, data = collected
+    proposer, actor = policy[0].proposer, policy[1]
+    critic = training.make_lyapunov_critic(env, (16,))
+    loss = training.make_lac_loss(actor, critic, env, cost="stability", hidden=(16,))
+    scored = training.residual_policy(proposer, actor, num_candidates=4, lyapunov=(critic, loss))
+    loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.2))  # an advisor's new spec
+    td = data[:, 0].select(*proposer.in_keys).clone()
+    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
+        out = scored(td)
+        raw = critic(out.select(training.OBSERVATION, training.ACTION).clone())
+    expected = -lyapunov_value(raw[training.LYAPUNOV_RAW], LyapunovSpec(form="squared"))
+    torch.testing.assert_close(out["agents", "selector", "scores"], expected)
+    assert (out["agents", "selector", "index"] == 0).all()
+    offset = out["agents", "action"] - out[training.PRIOR_ACTION]
+    assert offset.abs().max() < 1e-6  # the untrained residual: the prior's action, unchanged

@@ -29,14 +29,20 @@ from collections.abc import Mapping, Sequence
 
 import torch
 from tensordict import TensorDictBase
-from tensordict.nn import NormalParamExtractor, TensorDictModule, TensorDictSequential
+from tensordict.nn import (
+    NormalParamExtractor,
+    TensorDictModule,
+    TensorDictModuleBase,
+    TensorDictSequential,
+)
 from torch import nn
 from torchrl.modules import MLP, ProbabilisticActor, TanhNormal
 
 from torchrl_auv.envs import DataCollectionEnv
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone
+from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss
 from torchrl_auv.training.candidates import CANDIDATE_KEYS, next_state_values, selection_backup
-from torchrl_auv.training.keys import ACTION, AGENTS, OBSERVATION
+from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION
 from torchrl_auv.training.networks import observation_action_dims
 
 __all__ = [
@@ -57,6 +63,9 @@ NEXT_PRIOR_ACTION = ("next", *PRIOR_ACTION)
 #: what the replay buffer adds to :data:`~torchrl_auv.training.REPLAY_KEYS` for the actor
 RESIDUAL_KEYS = (PRIOR_ACTION, NEXT_PRIOR_ACTION)
 _LOW, _HIGH = (AGENTS, "prior", "low"), (AGENTS, "prior", "high")
+#: the executed action as a selector's one candidate ``[*B, N, 1, A]`` (its selector writes
+#: under ``("agents", "selector")``)
+_EXECUTED = (AGENTS, "executed", "candidates")
 
 
 class _ObsPriorMLP(nn.Module):
@@ -92,6 +101,14 @@ class _Bounds(nn.Module):
         return prior - self.bound, prior + self.bound
 
 
+class _OneCandidate(nn.Module):
+    """An action ``[..., A]`` as a set of one candidate ``[..., 1, A]`` (picklable, for
+    collector worker processes)."""
+
+    def forward(self, action: torch.Tensor) -> torch.Tensor:
+        return action.unsqueeze(-2)
+
+
 def make_residual_actor(
     env: DataCollectionEnv, hidden: Sequence[int] = (256, 256), *, bound: float
 ) -> ProbabilisticActor:
@@ -125,11 +142,31 @@ def residual_policy(
     *,
     pick: str = "medoid",
     num_candidates: int | None = None,
+    lyapunov: tuple[TensorDictModuleBase, LyapunovActorCriticLoss] | None = None,
 ) -> TensorDictSequential:
     """The proposer alone (``pick`` of ``num_candidates`` draws, re-planned every decision)
-    writing :data:`PRIOR_ACTION`, then the residual ``actor`` writing the executed action."""
+    writing :data:`PRIOR_ACTION`, then the residual ``actor`` writing the executed action
+    (``policy[0]`` is the prior). With ``lyapunov = (critic, loss)`` (the LAC recipe) a
+    :class:`~torchrl_auv.objectives.CandidateSelector` in mode ``"lyapunov"`` then scores the
+    executed action, its one candidate, with ``critic`` under ``loss``'s Lyapunov spec: it
+    writes ``("agents", "selector", "scores")`` (``-L``) and ``"index"`` (0), what the
+    Lyapunov trace reads (:func:`~torchrl_auv.report.write_lyapunov_trace`)."""
     prior = ProposerAlone(proposer, pick, action_key=PRIOR_ACTION, num_candidates=num_candidates)
-    return TensorDictSequential(prior, actor)
+    if lyapunov is None:
+        return TensorDictSequential(prior, actor)
+    critic, loss = lyapunov
+    as_candidate = TensorDictModule(_OneCandidate(), in_keys=[ACTION], out_keys=[_EXECUTED])
+    scorer = CandidateSelector(
+        critic,
+        mode="lyapunov",
+        candidates_key=_EXECUTED,
+        observation_key=OBSERVATION,
+        action_key=ACTION,
+        critic_action_key=ACTION,
+        critic_out_key=LYAPUNOV_RAW,
+    )
+    loss.share_spec(scorer)
+    return TensorDictSequential(prior, actor, as_candidate, scorer)
 
 
 @torch.no_grad()
