@@ -90,3 +90,18 @@ def test_render_mode_none_is_accepted_and_an_unknown_mode_is_named():
     assert env.unwrapped.render_mode is None
     with pytest.raises(ValueError, match="render_mode must be None"):
         gymnasium.make("torchrl_auv/Tracking-v0", render_mode="human")
+
+
+@pytest.mark.parametrize("env_id", ["torchrl_auv/DataCollection-v2", "torchrl_auv/Tracking-v0"])
+def test_reset_and_step_infos_have_the_same_keys(env_id):
+    """Minari's DataCollector(record_infos=True) refuses infos whose keys change."""
+    env = gymnasium.make(env_id, max_steps=3)
+    _, first = env.reset(seed=0)
+    assert first["cost"] == 0.0
+    infos = [env.step(env.action_space.sample())[-1] for _ in range(3)]
+
+    def keys(info):
+        return sorted(info), sorted(info["metrics"])
+
+    assert all(keys(info) == keys(first) for info in infos)
+    assert infos[-1]["metrics"] != first["metrics"]  # the episode's metrics, not reset's

@@ -6,7 +6,8 @@ registers the ids once (guarded against double registration). The gymnasium view
 single, unbatched episode on numpy arrays with float32 ``Box(-inf, inf)`` observations and
 ``Box(-1, 1)`` actions: 16 and 3 for tracking; for data collection the flat single-agent
 layout (``flatten_agents=True``), ``38 N`` and ``3 N``, with the reward summed over the AUVs.
-``info`` carries the ``cost`` and, at the end of an episode, the episode metrics. For batched
+``info`` carries the ``cost`` of the decision (0 at reset) and the episode's metrics so far
+(at its end: the episode's metrics), the same keys at reset and at every step. For batched
 or multi-agent training use the TorchRL envs directly. An env never seeded draws its seed from
 entropy at its first reset (gymnasium's convention; ``_GymView``). Unknown keyword arguments (and
 ``batch_size``) raise Python's usual ``TypeError: ... got an unexpected keyword argument
@@ -66,7 +67,14 @@ class _GymView(gymnasium.Env):
             self._env.set_seed(int(self.np_random.integers(2**31 - 1)))
         self._seeded = True
         self._td = self._env.reset()
-        return self._td["observation"].numpy().copy(), {}
+        return self._td["observation"].numpy().copy(), self._info(self._td, cost=0.0)
+
+    @staticmethod
+    def _info(td, cost: float) -> dict[str, Any]:
+        """The same keys at reset and at every step (Minari's ``record_infos`` needs them):
+        the decision's ``cost`` (0 at reset, before any decision) and the episode's
+        ``metrics`` so far (at its end: the episode's metrics)."""
+        return {"cost": cost, "metrics": {k: float(v) for k, v in td["metrics"].items()}}
 
     def step(self, action):
         if self._td is None:
@@ -74,10 +82,8 @@ class _GymView(gymnasium.Env):
         self._td["action"] = torch.as_tensor(np.asarray(action, dtype=np.float32))
         out = self._env.step(self._td)["next"]
         self._td = out
-        info: dict[str, Any] = {"cost": float(out["cost"])}
+        info = self._info(out, cost=float(out["cost"]))
         terminated, truncated = bool(out["terminated"]), bool(out["truncated"])
-        if terminated or truncated:
-            info["metrics"] = {k: float(v) for k, v in out["metrics"].items()}
         return (
             out["observation"].numpy().copy(),
             float(out["reward"]),
