@@ -133,11 +133,16 @@ RAY_SLOW_START = ("diststoreerror", "rendezvous", "socket timeout", "timed out a
 
 
 def _skip_if_ray_started_too_slowly(text: str) -> None:
-    lines = [line for line in str(text).splitlines()
-             if any(sign in line.lower() for sign in RAY_SLOW_START)]  # fmt: skip
+    lines = [
+        line
+        for line in str(text).splitlines()
+        if any(sign in line.lower() for sign in RAY_SLOW_START)
+    ]
     if lines:
-        pytest.skip("Ray's workers did not start within TorchRL's 60 s weight-sync timeout on "
-                    f"this (loaded) machine: {lines[-1].strip()[:200]}")  # fmt: skip
+        pytest.skip(
+            "Ray's workers did not start within TorchRL's 60 s weight-sync timeout on "
+            f"this (loaded) machine: {lines[-1].strip()[:200]}"
+        )
 
 
 @pytest.fixture

@@ -34,23 +34,38 @@ def main() -> None:
     def run(with_advisor: bool) -> tuple[float, float, int]:
         torch.manual_seed(0)
         env = AUVTrackingEnv(batch_size=[8], sea_state="es", seed=0)
-        net = nn.Sequential(MLP(in_features=16, out_features=6, num_cells=[128, 128]),
-                            NormalParamExtractor())  # fmt: skip
+        net = nn.Sequential(
+            MLP(in_features=16, out_features=6, num_cells=[128, 128]), NormalParamExtractor()
+        )
         actor = ProbabilisticActor(
             TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
-            in_keys=["loc", "scale"], spec=env.action_spec, distribution_class=TanhNormal,
-            distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=True,
-        )  # fmt: skip
-        critic = ValueOperator(MLP(in_features=19, out_features=16, num_cells=[128, 128]),
-                               in_keys=["observation", "action"])  # fmt: skip
+            in_keys=["loc", "scale"],
+            spec=env.action_spec,
+            distribution_class=TanhNormal,
+            distribution_kwargs={"low": -1.0, "high": 1.0},
+            return_log_prob=True,
+        )
+        critic = ValueOperator(
+            MLP(in_features=19, out_features=16, num_cells=[128, 128]),
+            in_keys=["observation", "action"],
+        )
         loss = LyapunovActorCriticLoss(actor, critic, form="squared")
         optim = torch.optim.Adam(loss.parameters(), lr=3e-4)
         buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(10_000), batch_size=256)
         folder = tempfile.mkdtemp()
-        trigger = AdvisorTrigger(RuleBasedAdvisor(), "hold heading and depth in extreme seas",
-                                 log_path=f"{folder}/advisor.jsonl", cooldown=0)  # fmt: skip
-        collector = Collector(env, actor, frames_per_batch=200, total_frames=200 * batches,
-                              auto_register_policy_transforms=False)  # fmt: skip
+        trigger = AdvisorTrigger(
+            RuleBasedAdvisor(),
+            "hold heading and depth in extreme seas",
+            log_path=f"{folder}/advisor.jsonl",
+            cooldown=0,
+        )
+        collector = Collector(
+            env,
+            actor,
+            frames_per_batch=200,
+            total_frames=200 * batches,
+            auto_register_policy_transforms=False,
+        )
         advisor_seconds, frames, consultations = 0.0, 0, 0
         start = time.perf_counter()
         if with_advisor:
@@ -77,12 +92,20 @@ def main() -> None:
 
     base_wall, _, _ = run(False)
     wall, advisor_seconds, consultations = run(True)
-    print_table(f"short LAC training run, {batches} batches x (200 frames + 100 updates)",
-                ["run", "wall s", "advisor s", "consultations"],
-                [["without advisor", base_wall, 0.0, 0],
-                 ["with RuleBasedAdvisor", wall, advisor_seconds, consultations]])  # fmt: skip
-    print_summary("bench_advisor", advisor_share_percent=100 * advisor_seconds / wall,
-                  wall_ratio=wall / base_wall, consultations=consultations)  # fmt: skip
+    print_table(
+        f"short LAC training run, {batches} batches x (200 frames + 100 updates)",
+        ["run", "wall s", "advisor s", "consultations"],
+        [
+            ["without advisor", base_wall, 0.0, 0],
+            ["with RuleBasedAdvisor", wall, advisor_seconds, consultations],
+        ],
+    )
+    print_summary(
+        "bench_advisor",
+        advisor_share_percent=100 * advisor_seconds / wall,
+        wall_ratio=wall / base_wall,
+        consultations=consultations,
+    )
 
 
 if __name__ == "__main__":

@@ -43,8 +43,15 @@ def _collect(backend: str, workers: int, frames: int) -> tuple[float, float]:
     create = partial(make_env, "ideal", num_envs=2, max_steps=300)
     actor = make_actor(create(seed=0), hidden=(64, 64))
     start = time.perf_counter()
-    collector = make_collector(create, actor, seed=0, frames_per_batch=200, total_frames=frames,
-                               num_workers=workers, backend=backend)  # fmt: skip
+    collector = make_collector(
+        create,
+        actor,
+        seed=0,
+        frames_per_batch=200,
+        total_frames=frames,
+        num_workers=workers,
+        backend=backend,
+    )
     first, steady_frames = None, 0
     for data in collector:
         if first is None:
@@ -64,17 +71,32 @@ def _collect(backend: str, workers: int, frames: int) -> tuple[float, float]:
 def _sweep(tmp: str, *overrides: str) -> float:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline", "RAY_ADDRESS": ""}
     start = time.perf_counter()
-    subprocess.run([sys.executable, "recipes/train.py", "-m", "+sweeps=tiny", f"run_root={tmp}",
-                    "logger.backend=", *overrides], cwd=REPO, env=env, check=True,
-                   capture_output=True)  # fmt: skip
+    subprocess.run(
+        [
+            sys.executable,
+            "recipes/train.py",
+            "-m",
+            "+sweeps=tiny",
+            f"run_root={tmp}",
+            "logger.backend=",
+            *overrides,
+        ],
+        cwd=REPO,
+        env=env,
+        check=True,
+        capture_output=True,
+    )
     return time.perf_counter() - start
 
 
 def main() -> None:
-    args = setup(__doc__.split("\n")[0], add_arguments=lambda p: (
-        p.add_argument("--frames", type=int, default=4000),
-        p.add_argument("--sweeps", action="store_true", help="also time the tiny sweep"),
-    ))  # fmt: skip
+    args = setup(
+        __doc__.split("\n")[0],
+        add_arguments=lambda p: (
+            p.add_argument("--frames", type=int, default=4000),
+            p.add_argument("--sweeps", action="store_true", help="also time the tiny sweep"),
+        ),
+    )
     frames = 1000 if args.quick else args.frames
     has_ray = importlib.util.find_spec("ray") is not None
     rows, rates = [], {}
@@ -92,10 +114,14 @@ def main() -> None:
             local = _sweep(f"{tmp}/local")
             ray_run = float("nan")
             if has_ray:
-                ray_run = _sweep(f"{tmp}/ray", "hydra/launcher=ray",
-                                 "+hydra.launcher.ray.init.num_cpus=2")  # fmt: skip
-        print_table("tiny sweep (4 jobs)", ("launcher", "wall s"),
-                    [("hydra basic (serial)", local), ("hydra ray (2 CPUs)", ray_run)])  # fmt: skip
+                ray_run = _sweep(
+                    f"{tmp}/ray", "hydra/launcher=ray", "+hydra.launcher.ray.init.num_cpus=2"
+                )
+        print_table(
+            "tiny sweep (4 jobs)",
+            ("launcher", "wall s"),
+            [("hydra basic (serial)", local), ("hydra ray (2 CPUs)", ray_run)],
+        )
         summary.update(sweep_local_s=local, sweep_ray_s=ray_run)
     print_summary("collectors", **summary)
 

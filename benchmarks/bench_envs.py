@@ -59,10 +59,17 @@ def main() -> None:
             )
     print_table(
         "decision step (20 physics steps per AUV), es, float32, 1 thread",
-        ["env", "physics", "batch", "first two steps (s)", "ms / decision", "AUV-decisions / s",
-         "s per 1000-decision episode"],
+        [
+            "env",
+            "physics",
+            "batch",
+            "first two steps (s)",
+            "ms / decision",
+            "AUV-decisions / s",
+            "s per 1000-decision episode",
+        ],
         rows,
-    )  # fmt: skip
+    )
 
     def rate(name, compiled, batch):
         seconds, auvs = per_decision[name, compiled, batch]

@@ -58,17 +58,24 @@ def _pieces():
     p = cfg.proposer
     obs_dim = env.observation_spec[training.OBSERVATION].shape[-1]
     proposer = DiffusionProposer(
-        DiffusionProposer.conditioning_dim(obs_dim, 3, p.history), 3,
-        state_key=training.OBSERVATION, history_key=(training.AGENTS, "history"),
-        horizon=p.horizon, noise_model=p.noise_model, num_candidates=p.num_candidates,
+        DiffusionProposer.conditioning_dim(obs_dim, 3, p.history),
+        3,
+        state_key=training.OBSERVATION,
+        history_key=(training.AGENTS, "history"),
+        horizon=p.horizon,
+        noise_model=p.noise_model,
+        num_candidates=p.num_candidates,
         noise_model_kwargs={"hidden": p.hidden, "depth": p.depth, "cond_dim": p.cond_dim},
-        num_inference_steps=p.num_inference_steps, sampler=p.sampler, compile=p.compile,
-    )  # fmt: skip
+        num_inference_steps=p.num_inference_steps,
+        sampler=p.sampler,
+        compile=p.compile,
+    )
     actor = training.make_actor(env, cfg.network.hidden)
     critic = training.make_lyapunov_critic(env, cfg.network.hidden)
     learner = training.lac_from_config(cfg, env, actor, critic)
-    policy = training.make_selection_policy(proposer, critic, mode="lyapunov", loss=learner.loss,
-                                            critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
+    policy = training.make_selection_policy(
+        proposer, critic, mode="lyapunov", loss=learner.loss, critic_out_key=training.LYAPUNOV_RAW
+    )
     return cfg, env, actor, proposer, learner, policy
 
 
@@ -78,8 +85,9 @@ def _train_batches(cfg, env, learner, policy, batches: int, worker=None) -> floa
     from torchrl_auv import training
 
     buffer = training.buffer_from_config(cfg, Path("/tmp/bench_evaluation"))
-    collector = training.collector_from_config(cfg, policy, env=env,
-                                               total_frames=(batches + 1) * 1000)  # fmt: skip
+    collector = training.collector_from_config(
+        cfg, policy, env=env, total_frames=(batches + 1) * 1000
+    )
     seconds, began = [], time.perf_counter()
     for i, data in enumerate(collector):
         buffer.extend(training.select_for_replay(data))
@@ -106,8 +114,7 @@ def main() -> None:
     args.batches = args.batches or (1 if args.quick else 3)
     cfg, env, actor, proposer, learner, policy = _pieces()
     d, scale = args.decisions, FULL_DECISIONS / args.decisions
-    rows = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor,
-                                                    proposer)  # fmt: skip
+    rows = training.evaluation_policies_from_config(cfg, "diffusion_lac", policy, actor, proposer)
     old_rows = {**rows, "OA": training.RankedCandidate(policy, 0)}  # evaluated again
     final_env = training.held_out_env(cfg, cfg.eval.num_envs, d)
     curve_env = training.held_out_env(cfg, cfg.eval.curve_envs, d)
@@ -118,29 +125,44 @@ def main() -> None:
         return time.perf_counter() - began
 
     def final(policies, workers, make_env=final_env, steps=d):
-        return training.evaluate(make_env, policies, ["ves"], seed=cfg.eval.seed, steps=steps,
-                                 workers=workers)  # fmt: skip
+        return training.evaluate(
+            make_env, policies, ["ves"], seed=cfg.eval.seed, steps=steps, workers=workers
+        )
 
     final(rows, 1, training.held_out_env(cfg, cfg.eval.num_envs, 2), 2)  # compile in this process
-    training.evaluate(training.held_out_env(cfg, cfg.eval.curve_envs, 2), {"policy": policy},
-                      ["ves"], seed=cfg.eval.seed, steps=2)  # fmt: skip
-    point = timed(lambda: training.evaluate(curve_env, {"policy": policy}, ["ves"],
-                                            seed=cfg.eval.seed, steps=d))  # fmt: skip
+    training.evaluate(
+        training.held_out_env(cfg, cfg.eval.curve_envs, 2),
+        {"policy": policy},
+        ["ves"],
+        seed=cfg.eval.seed,
+        steps=2,
+    )
+    point = timed(
+        lambda: training.evaluate(
+            curve_env, {"policy": policy}, ["ves"], seed=cfg.eval.seed, steps=d
+        )
+    )
     old_serial = timed(lambda: final(old_rows, 1))
     new_serial = timed(lambda: final(rows, 1))
     start_up = timed(lambda: final(rows, 2, training.held_out_env(cfg, cfg.eval.num_envs, 1), 1))
     new_workers = timed(lambda: final(rows, 2))
     batch = _train_batches(cfg, env, learner, policy, args.batches)
-    worker = RowWorker(training.held_out_env(cfg, cfg.eval.curve_envs, FULL_DECISIONS), "ves",
-                       seed=cfg.eval.seed, steps=FULL_DECISIONS)  # fmt: skip
+    worker = RowWorker(
+        training.held_out_env(cfg, cfg.eval.curve_envs, FULL_DECISIONS),
+        "ves",
+        seed=cfg.eval.seed,
+        steps=FULL_DECISIONS,
+    )
     batch_background = _train_batches(cfg, env, learner, policy, args.batches, worker)
     worker.close()  # the point still out is dropped
 
-    full = {"point": point * scale, "old": old_serial * scale * SEAS,
-            "serial": new_serial * scale * SEAS,
-            "workers": start_up + (new_workers - start_up) * scale * SEAS}  # fmt: skip
-    training_s = {"old": batch * PAPER_FRAMES / 1000,
-                  "new": batch_background * PAPER_FRAMES / 1000}  # fmt: skip
+    full = {
+        "point": point * scale,
+        "old": old_serial * scale * SEAS,
+        "serial": new_serial * scale * SEAS,
+        "workers": start_up + (new_workers - start_up) * scale * SEAS,
+    }
+    training_s = {"old": batch * PAPER_FRAMES / 1000, "new": batch_background * PAPER_FRAMES / 1000}
     before = full["old"] + CURVE_POINTS * full["point"]
     # after: the training the background points slow down is counted as evaluation too
     after = full["workers"] + full["point"] + max(training_s["new"] - training_s["old"], 0.0)
@@ -149,28 +171,55 @@ def main() -> None:
     print_table(
         f"timed on ves ({d} decisions per row), scaled to {FULL_DECISIONS} decisions x {SEAS} seas",
         ["what", f"timed (s, {d} dec.)", "paper run (min)"],
-        [["one curve point (2 scenes)", f"{point:.1f}", f"{full['point'] / 60:.1f}"],
-         ["final eval, 10 rows one after another (before)", f"{old_serial:.1f}",
-          f"{full['old'] / 60:.1f}"],
-         ["final eval, 9 rows (OA copied)", f"{new_serial:.1f}", f"{full['serial'] / 60:.1f}"],
-         ["final eval, 9 rows, 2 workers (start-up incl.)", f"{new_workers:.1f}",
-          f"{full['workers'] / 60:.1f}"],
-         ["  of which worker start-up (1-decision rows)", f"{start_up:.1f}", "-"],
-         ["training, 1000-frame batch", f"{batch:.1f}", f"{training_s['old'] / 60:.1f}"],
-         ["training batch, curve point in the background", f"{batch_background:.1f}",
-          f"{training_s['new'] / 60:.1f}"]],
-    )  # fmt: skip
-    shares = [["before: 13 curve points in the loop, 10 rows serial", before,
-               training_s["old"], share_before],
-              ["after: curve in the background (its slowdown of training counted here), "
-               "9 rows on 2 workers", after, training_s["old"], share_after]]  # fmt: skip
-    print_table("evaluation's share of a paper run (first stage cached)",
-                ["", "evaluation (min)", "training (min)", "share"],
-                [[what, f"{e / 60:.1f}", f"{t / 60:.1f}", f"{s:.1%}"]
-                 for what, e, t, s in shares])  # fmt: skip
-    print_summary("evaluation", share_before=share_before, share_after=share_after,
-                  final_eval_speedup=full["old"] / full["workers"],
-                  background_batch_slowdown=batch_background / batch)  # fmt: skip
+        [
+            ["one curve point (2 scenes)", f"{point:.1f}", f"{full['point'] / 60:.1f}"],
+            [
+                "final eval, 10 rows one after another (before)",
+                f"{old_serial:.1f}",
+                f"{full['old'] / 60:.1f}",
+            ],
+            ["final eval, 9 rows (OA copied)", f"{new_serial:.1f}", f"{full['serial'] / 60:.1f}"],
+            [
+                "final eval, 9 rows, 2 workers (start-up incl.)",
+                f"{new_workers:.1f}",
+                f"{full['workers'] / 60:.1f}",
+            ],
+            ["  of which worker start-up (1-decision rows)", f"{start_up:.1f}", "-"],
+            ["training, 1000-frame batch", f"{batch:.1f}", f"{training_s['old'] / 60:.1f}"],
+            [
+                "training batch, curve point in the background",
+                f"{batch_background:.1f}",
+                f"{training_s['new'] / 60:.1f}",
+            ],
+        ],
+    )
+    shares = [
+        [
+            "before: 13 curve points in the loop, 10 rows serial",
+            before,
+            training_s["old"],
+            share_before,
+        ],
+        [
+            "after: curve in the background (its slowdown of training counted here), "
+            "9 rows on 2 workers",
+            after,
+            training_s["old"],
+            share_after,
+        ],
+    ]
+    print_table(
+        "evaluation's share of a paper run (first stage cached)",
+        ["", "evaluation (min)", "training (min)", "share"],
+        [[what, f"{e / 60:.1f}", f"{t / 60:.1f}", f"{s:.1%}"] for what, e, t, s in shares],
+    )
+    print_summary(
+        "evaluation",
+        share_before=share_before,
+        share_after=share_after,
+        final_eval_speedup=full["old"] / full["workers"],
+        background_batch_slowdown=batch_background / batch,
+    )
 
 
 if __name__ == "__main__":

@@ -60,9 +60,12 @@ def _row(folder: Path, reuse_s: float) -> list[object]:
     rounds = 0
     while f"dagger{rounds + 1}_s" in metrics:
         rounds += 1
-    phases = [metrics["demonstrations_s"], metrics["pretraining_s"],
-              sum(metrics[f"dagger{r}_collection_s"] for r in range(1, rounds + 1)),
-              sum(metrics[f"dagger{r}_s"] for r in range(1, rounds + 1))]  # fmt: skip
+    phases = [
+        metrics["demonstrations_s"],
+        metrics["pretraining_s"],
+        sum(metrics[f"dagger{r}_collection_s"] for r in range(1, rounds + 1)),
+        sum(metrics[f"dagger{r}_s"] for r in range(1, rounds + 1)),
+    ]
     return [folder.name, rounds, *phases, sum(phases) / 60, reuse_s]
 
 
@@ -97,12 +100,23 @@ def main(argv=None) -> None:
             reuse_s = time.perf_counter() - start
             assert not again.built, "the second call should have reused the artefact"
             rows.append(_row(stage.folder, reuse_s))
-    header = ["artefact", "dagger rounds", "demos s", "pretrain s", "dagger collect s",
-              "dagger train s", "total min", "reuse s"]  # fmt: skip
+    header = [
+        "artefact",
+        "dagger rounds",
+        "demos s",
+        "pretrain s",
+        "dagger collect s",
+        "dagger train s",
+        "total min",
+        "reuse s",
+    ]
     print_table(f"first stage ({args.preset if not args.cache else args.cache})", header, rows)
     if rows:
-        print_summary("first_stage", worst_total_min=max(r[-2] for r in rows),
-                      worst_reuse_s=max(r[-1] for r in rows))  # fmt: skip
+        print_summary(
+            "first_stage",
+            worst_total_min=max(r[-2] for r in rows),
+            worst_reuse_s=max(r[-1] for r in rows),
+        )
 
 
 if __name__ == "__main__":

@@ -27,17 +27,22 @@ def main() -> None:
     obs, act, batch = 16, 3, 256
 
     def actor():
-        net = nn.Sequential(MLP(in_features=obs, out_features=2 * act, num_cells=[128, 128]),
-                            NormalParamExtractor())  # fmt: skip
+        net = nn.Sequential(
+            MLP(in_features=obs, out_features=2 * act, num_cells=[128, 128]), NormalParamExtractor()
+        )
         return ProbabilisticActor(
             TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
-            in_keys=["loc", "scale"], distribution_class=TanhNormal,
-            distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=True,
-        )  # fmt: skip
+            in_keys=["loc", "scale"],
+            distribution_class=TanhNormal,
+            distribution_kwargs={"low": -1.0, "high": 1.0},
+            return_log_prob=True,
+        )
 
     def critic(out):
-        return ValueOperator(MLP(in_features=obs + act, out_features=out, num_cells=[128, 128]),
-                             in_keys=["observation", "action"])  # fmt: skip
+        return ValueOperator(
+            MLP(in_features=obs + act, out_features=out, num_cells=[128, 128]),
+            in_keys=["observation", "action"],
+        )
 
     g = torch.Generator().manual_seed(0)
     data = TensorDict(
@@ -75,8 +80,11 @@ def main() -> None:
         seconds = measure(step, min_time=1.0 if args.quick else 3.0, repeats=3, warmup=3)
         per_step[name] = seconds.median
         rows.append([name, f"{seconds.median * 1e3:.2f}", f"{1 / seconds.median:,.0f}"])
-    print_table("one optimisation step, batch 256, hidden 128, 1 thread",
-                ["loss", "ms / step", "steps / s"], rows)  # fmt: skip
+    print_table(
+        "one optimisation step, batch 256, hidden 128, 1 thread",
+        ["loss", "ms / step", "steps / s"],
+        rows,
+    )
     selector = CandidateSelector(critic(1), mode="q")
     sel_rows = {}
     for b in (1, 256):
@@ -89,8 +97,11 @@ def main() -> None:
         )
         seconds = measure(lambda td=td: selector(td.clone()), min_time=1.0, repeats=3, warmup=3)
         sel_rows[b] = seconds.median
-    print_table("CandidateSelector, K = 5", ["batch", "ms / selection"],
-                [[b, f"{s * 1e3:.3f}"] for b, s in sel_rows.items()])  # fmt: skip
+    print_table(
+        "CandidateSelector, K = 5",
+        ["batch", "ms / selection"],
+        [[b, f"{s * 1e3:.3f}"] for b, s in sel_rows.items()],
+    )
     ratio = per_step["LyapunovActorCriticLoss"] / per_step["SACLoss (TorchRL)"]
     print_summary(
         "bench_losses",

@@ -37,8 +37,13 @@ RECIPES = ("sac", "diffusion", "diffusion_rl", "diffusion_lac")
 
 def _train(recipe: str, overrides: list[str]) -> None:
     env = {**os.environ, "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "1")}
-    result = subprocess.run([sys.executable, f"recipes/{recipe}/train.py", *overrides],
-                            cwd=REPO, env=env, capture_output=True, text=True)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, f"recipes/{recipe}/train.py", *overrides],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
     if result.returncode:
         raise RuntimeError(f"{recipe} failed:\n{result.stderr[-2000:]}")
 
@@ -49,8 +54,14 @@ def _fact(run_dir: Path, name: str) -> float:
 
 
 def run(recipe: str, run_dir: Path, frames: int, proposer: Path | None) -> float:
-    overrides = ["--config-name=quick", f"run_dir={run_dir}", f"collector.total_frames={frames}",
-                 "collector.frames_per_batch=200", "eval.steps=5", "logger.backend="]  # fmt: skip
+    overrides = [
+        "--config-name=quick",
+        f"run_dir={run_dir}",
+        f"collector.total_frames={frames}",
+        "collector.frames_per_batch=200",
+        "eval.steps=5",
+        "logger.backend=",
+    ]
     if recipe != "diffusion":
         overrides.append("optim.updates_per_batch=50")
     if recipe == "sac":  # the others have no random phase (the proposer acts from the start)
@@ -82,25 +93,51 @@ def paper(frames: int, proposer: str | None) -> None:
         for recipe in ("diffusion_lac", "sac"):
             run_dir = Path(tmp, recipe)
             start = time.perf_counter()
-            overrides = [f"run_dir={run_dir}", f"collector.total_frames={frames}",
-                         "eval.steps=5", "eval.num_envs=1", "logger.backend=",
-                         f"checkpoint.every_frames={frames}"]  # fmt: skip
+            overrides = [
+                f"run_dir={run_dir}",
+                f"collector.total_frames={frames}",
+                "eval.steps=5",
+                "eval.num_envs=1",
+                "logger.backend=",
+                f"checkpoint.every_frames={frames}",
+            ]
             if proposer and recipe == "diffusion_lac":
                 overrides.append(f"proposer.path={proposer}")
             _train(recipe, overrides)
             wall = time.perf_counter() - start
             rates[recipe] = steady_rate(run_dir)
-            rows.append([recipe, frames, f"{wall:.0f}", _fact(run_dir, "training frames/s"),
-                         rates[recipe], budget / rates[recipe] / 3600,
-                         _fact(run_dir, "peak RSS (MB)")])  # fmt: skip
-    header = ["recipe", "frames", "wall s (incl. start-up)", "frames/s (whole run)",
-              "steady frames/s", "budget hours (extrapolated)", "peak RSS MB"]  # fmt: skip
-    print_table(f"paper preset, {frames}-frame segment (extrapolated to {budget:,} frames)",
-                header, rows)  # fmt: skip
+            rows.append(
+                [
+                    recipe,
+                    frames,
+                    f"{wall:.0f}",
+                    _fact(run_dir, "training frames/s"),
+                    rates[recipe],
+                    budget / rates[recipe] / 3600,
+                    _fact(run_dir, "peak RSS (MB)"),
+                ]
+            )
+    header = [
+        "recipe",
+        "frames",
+        "wall s (incl. start-up)",
+        "frames/s (whole run)",
+        "steady frames/s",
+        "budget hours (extrapolated)",
+        "peak RSS MB",
+    ]
+    print_table(
+        f"paper preset, {frames}-frame segment (extrapolated to {budget:,} frames)", header, rows
+    )
     hours = budget / rates["diffusion_lac"] / 3600
-    print_summary("recipes_paper", diffusion_lac_budget_hours=hours,
-                  diffusion_lac_vs_sac=rates["diffusion_lac"] / rates["sac"],
-                  target_hours="<= 1", target_ratio=">= 0.5", frames=frames)  # fmt: skip
+    print_summary(
+        "recipes_paper",
+        diffusion_lac_budget_hours=hours,
+        diffusion_lac_vs_sac=rates["diffusion_lac"] / rates["sac"],
+        target_hours="<= 1",
+        target_ratio=">= 0.5",
+        frames=frames,
+    )
 
 
 def _arguments(parser: argparse.ArgumentParser) -> None:
@@ -121,15 +158,21 @@ def main() -> None:
         run("diffusion", first, 200, None)  # builds and caches the proposer
         proposer = first / "proposer" / "proposer.pt"
         print(f"first stage (demonstrations + pretraining): {time.perf_counter() - start:.0f} s")
-        rates = {r: run(r, Path(tmp, r), frames, None if r == "sac" else proposer)
-                 for r in RECIPES}  # fmt: skip
+        rates = {r: run(r, Path(tmp, r), frames, None if r == "sac" else proposer) for r in RECIPES}
     rows = [(name, rate, rate / rates["sac"]) for name, rate in rates.items()]
-    print_table("training frames/s (2 scenes, 50 updates per 200 frames)",
-                ["recipe", "frames/s", "vs sac"], rows)  # fmt: skip
-    print_summary("recipes", diffusion_lac_vs_sac=rates["diffusion_lac"] / rates["sac"],
-                  diffusion_rl_vs_sac=rates["diffusion_rl"] / rates["sac"],
-                  diffusion_vs_sac=rates["diffusion"] / rates["sac"], target=">= 0.5",
-                  frames=frames)  # fmt: skip
+    print_table(
+        "training frames/s (2 scenes, 50 updates per 200 frames)",
+        ["recipe", "frames/s", "vs sac"],
+        rows,
+    )
+    print_summary(
+        "recipes",
+        diffusion_lac_vs_sac=rates["diffusion_lac"] / rates["sac"],
+        diffusion_rl_vs_sac=rates["diffusion_rl"] / rates["sac"],
+        diffusion_vs_sac=rates["diffusion"] / rates["sac"],
+        target=">= 0.5",
+        frames=frames,
+    )
 
 
 if __name__ == "__main__":

@@ -66,8 +66,9 @@ print(time.perf_counter() - start)
 
 def _first_step_seconds(cache: str) -> float:
     env = {**os.environ, "TORCHINDUCTOR_CACHE_DIR": cache, "OMP_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", FIRST_STEP], env=env, capture_output=True,
-                         text=True, check=True)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", FIRST_STEP], env=env, capture_output=True, text=True, check=True
+    )
     return float(out.stdout.strip().splitlines()[-1])
 
 
@@ -79,8 +80,11 @@ def _pvs_step_us(src: str, min_time: float) -> float:
     from python_vehicle_simulator.vehicles.remus100 import remus100
 
     vehicle = remus100()
-    state = {"eta": np.array([0, 0, 10, 0, 0, 0.0]), "nu": np.array([1.5, 0, 0, 0, 0, 0.0]),
-             "act": np.array([0, 0, 1200.0])}  # fmt: skip
+    state = {
+        "eta": np.array([0, 0, 10, 0, 0, 0.0]),
+        "nu": np.array([1.5, 0, 0, 0, 0, 0.0]),
+        "act": np.array([0, 0, 1200.0]),
+    }
     command = np.array([0.05, 0.02, 1200.0])
 
     def one() -> None:
@@ -107,15 +111,20 @@ def measure_all(quick: bool, pvs_src: str | None) -> dict[str, float]:
     act = torch.tensor([[0.0, 0.0, 1200.0]], dtype=f64)
     cmd = torch.tensor([[0.05, 0.02, 1200.0]], dtype=f64)
     current = torch.tensor([[0.5, 1.0]], dtype=f64)
-    timing = measure(lambda: remus100.step(eta, nu, act, cmd, current, 0.05),
-                     min_time=min_time, repeats=7, warmup=200)  # fmt: skip
+    timing = measure(
+        lambda: remus100.step(eta, nu, act, cmd, current, 0.05),
+        min_time=min_time,
+        repeats=7,
+        warmup=200,
+    )
     out["step_us"] = timing.median * 1e6
     if pvs_src:
         out["pvs_us"] = _pvs_step_us(pvs_src, min_time)
         out["step_vs_reference"] = out["pvs_us"] / out["step_us"]
     for batch, compiled in ((1, False), (1, True), (256, False), (256, True)):
-        env = DataCollectionEnv(batch_size=[batch], sea_state="es", seed=0,
-                                compile_physics=compiled)  # fmt: skip
+        env = DataCollectionEnv(
+            batch_size=[batch], sea_state="es", seed=0, compile_physics=compiled
+        )
         td = env.rand_action(env.reset())
         for _ in range(2):  # compiles, if compiled
             env.step(td).pop("next")
@@ -189,17 +198,29 @@ def main() -> None:
             continue
         value = after[key]
         old = before.get(key)
-        meets = "" if target is None else (
-            "yes" if (value <= target if better == "low" else value >= target) else "no"
-        )  # fmt: skip
+        meets = (
+            ""
+            if target is None
+            else ("yes" if (value <= target if better == "low" else value >= target) else "no")
+        )
         ratio = (value / target if better == "high" else target / value) if target else None
-        rows.append([label, "-" if target is None else target, "-" if old is None else old,
-                     value, "-" if old is None else value / old,
-                     "-" if ratio is None else ratio, meets or "-"])  # fmt: skip
+        rows.append(
+            [
+                label,
+                "-" if target is None else target,
+                "-" if old is None else old,
+                value,
+                "-" if old is None else value / old,
+                "-" if ratio is None else ratio,
+                meets or "-",
+            ]
+        )
         summary[key] = value
-    print_table("speed figures of issue [11/13] (1 thread; ratio to target: >= 1 meets it)",
-                ["figure", "target", "before", "after", "after / before", "ratio to target",
-                 "meets"], rows)  # fmt: skip
+    print_table(
+        "speed figures of issue [11/13] (1 thread; ratio to target: >= 1 meets it)",
+        ["figure", "target", "before", "after", "after / before", "ratio to target", "meets"],
+        rows,
+    )
     print(f"\n(benchmark wall time {time.perf_counter() - start:.0f} s)")
     print_summary("speed", **summary)
 

@@ -53,10 +53,13 @@ html_theme = "furo"
 html_title = f"torchrl-auv {release}"
 
 #: links between the repository's Markdown files, as the pages that include them are named
-REPOSITORY_LINKS = {"](recipes/README.md": "](recipes.md", "](CHANGELOG.md": "](changelog.md",
-                    "](../README.md": "](getting_started.md",
-                    "](docs/results.md": "](results.md",
-                    "](docs/spec/data_collection.md": "](spec/data_collection.md"}  # fmt: skip
+REPOSITORY_LINKS = {
+    "](recipes/README.md": "](recipes.md",
+    "](CHANGELOG.md": "](changelog.md",
+    "](../README.md": "](getting_started.md",
+    "](docs/results.md": "](results.md",
+    "](docs/spec/data_collection.md": "](spec/data_collection.md",
+}
 
 
 def _repository_links(app, relative_path, parent_docname, content):

@@ -39,8 +39,13 @@ def main(argv=None) -> None:
     updater = SoftUpdate(loss, tau=0.005)
     optimiser = torch.optim.Adam(loss.parameters(), lr=3e-4)
     buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(100_000), batch_size=64)
-    collector = Collector(env, actor, frames_per_batch=100, total_frames=args.frames,
-                          auto_register_policy_transforms=False)  # fmt: skip
+    collector = Collector(
+        env,
+        actor,
+        frames_per_batch=100,
+        total_frames=args.frames,
+        auto_register_policy_transforms=False,
+    )
     for i, batch in enumerate(collector):
         buffer.extend(select_for_replay(batch))  # only what the loss reads
         for _ in range(10):
@@ -50,9 +55,11 @@ def main(argv=None) -> None:
             total.backward()
             optimiser.step()
             updater.step()
-        print(f"batch {i}: cost {batch['next', 'agents', 'cost'].mean().item():.3f}, "
-              f"lambda {out['lambda'].item():.3f}, beta {out['beta'].item():.3f}, "
-              f"violation rate {out['violation_rate'].item():.2f}")  # fmt: skip
+        print(
+            f"batch {i}: cost {batch['next', 'agents', 'cost'].mean().item():.3f}, "
+            f"lambda {out['lambda'].item():.3f}, beta {out['beta'].item():.3f}, "
+            f"violation rate {out['violation_rate'].item():.2f}"
+        )
     collector.shutdown()
 
 

@@ -76,20 +76,27 @@ def make_env(name: str, seed: int, sea: str = "es", **tracking) -> TransformedEn
 
 def make_actor(env) -> ProbabilisticActor:
     obs, act = env.observation_spec["observation"].shape[-1], env.action_spec.shape[-1]
-    net = nn.Sequential(MLP(in_features=obs, out_features=2 * act, num_cells=HIDDEN),
-                        NormalParamExtractor())  # fmt: skip
+    net = nn.Sequential(
+        MLP(in_features=obs, out_features=2 * act, num_cells=HIDDEN), NormalParamExtractor()
+    )
     module = TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"])
     space = env.action_spec.space
     return ProbabilisticActor(
-        module, in_keys=["loc", "scale"], spec=env.action_spec, distribution_class=TanhNormal,
-        distribution_kwargs={"low": space.low, "high": space.high}, return_log_prob=True,
-    )  # fmt: skip
+        module,
+        in_keys=["loc", "scale"],
+        spec=env.action_spec,
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": space.low, "high": space.high},
+        return_log_prob=True,
+    )
 
 
 def make_critic(env, out_features: int = 1) -> ValueOperator:
     obs, act = env.observation_spec["observation"].shape[-1], env.action_spec.shape[-1]
-    return ValueOperator(MLP(in_features=obs + act, out_features=out_features, num_cells=HIDDEN),
-                         in_keys=["observation", "action"])  # fmt: skip
+    return ValueOperator(
+        MLP(in_features=obs + act, out_features=out_features, num_cells=HIDDEN),
+        in_keys=["observation", "action"],
+    )
 
 
 def make_loss(name: str, actor, env, form: str, alpha: float, gamma: float):
@@ -113,9 +120,19 @@ def make_loss(name: str, actor, env, form: str, alpha: float, gamma: float):
     return loss, torch.optim.Adam(groups, lr=3e-4)
 
 
-def train(env_name="pendulum", loss_name="lac", seed=0, frames=40_000, form="softplus",
-          alpha=0.1, gamma=0.99, sea="es", utd=1.0, batch_size=256,
-          init_random_frames=1_000):  # fmt: skip
+def train(
+    env_name="pendulum",
+    loss_name="lac",
+    seed=0,
+    frames=40_000,
+    form="softplus",
+    alpha=0.1,
+    gamma=0.99,
+    sea="es",
+    utd=1.0,
+    batch_size=256,
+    init_random_frames=1_000,
+):
     """Train one seed; returns ``(summary, actor, loss)``."""
     torch.manual_seed(seed)
     env = make_env(env_name, seed, sea)
@@ -123,9 +140,14 @@ def train(env_name="pendulum", loss_name="lac", seed=0, frames=40_000, form="sof
     loss, optim = make_loss(loss_name, actor, env, form, alpha, gamma)
     updater = SoftUpdate(loss, tau=0.005)
     frames_per_batch = 100 if env_name == "pendulum" else 16 * 25
-    collector = Collector(env, actor, frames_per_batch=frames_per_batch, total_frames=frames,
-                          init_random_frames=init_random_frames,
-                          auto_register_policy_transforms=False)  # fmt: skip
+    collector = Collector(
+        env,
+        actor,
+        frames_per_batch=frames_per_batch,
+        total_frames=frames,
+        init_random_frames=init_random_frames,
+        auto_register_policy_transforms=False,
+    )
     buffer = TensorDictReplayBuffer(storage=LazyTensorStorage(frames), batch_size=batch_size)
     returns, last, updates = [], {}, 0
     start = time.perf_counter()
@@ -163,8 +185,9 @@ def train(env_name="pendulum", loss_name="lac", seed=0, frames=40_000, form="sof
     return summary, actor, loss
 
 
-def evaluate_tracking(actor, loss, seed: int, sea: str = "es", episodes: int = 16,
-                      steps: int = 120) -> dict:  # fmt: skip
+def evaluate_tracking(
+    actor, loss, seed: int, sea: str = "es", episodes: int = 16, steps: int = 120
+) -> dict:
     """Deterministic step responses on ``AUVTrackingEnv`` (one reference per episode).
 
     Reports mean |heading - reference| (rad) and |depth - reference| (m) on the true state, and
@@ -172,8 +195,13 @@ def evaluate_tracking(actor, loss, seed: int, sea: str = "es", episodes: int = 1
     ten steps, the fraction of episodes where it ends lower than it starts, and the fraction of
     steps with ``Delta L = L(s_{t+1}, a_{t+1}) - L(s_t, a_t) + alpha c <= 0``.
     """
-    env = AUVTrackingEnv(batch_size=[episodes], sea_state=sea, seed=10_000 + seed,
-                         max_steps=steps, segment_seconds=steps + 1.0)  # fmt: skip
+    env = AUVTrackingEnv(
+        batch_size=[episodes],
+        sea_state=sea,
+        seed=10_000 + seed,
+        max_steps=steps,
+        segment_seconds=steps + 1.0,
+    )
     with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
         td = env.rollout(steps, actor, break_when_any_done=False)
     eta, ref = td["next", "truth", "eta"], td["reference"][:, :, 0]  # [E, T, 6], [E, T, 3]
@@ -196,9 +224,11 @@ def evaluate_tracking(actor, loss, seed: int, sea: str = "es", episodes: int = 1
             eval_lyapunov_first10=lyap[:, :10].mean().item(),
             eval_lyapunov_last10=lyap[:, -10:].mean().item(),
             eval_lyapunov_decreased_fraction=(lyap[:, -10:].mean(1) < lyap[:, :10].mean(1))
-            .float().mean().item(),
+            .float()
+            .mean()
+            .item(),
             eval_delta_l_nonpositive_fraction=(delta <= 0).float().mean().item(),
-        )  # fmt: skip
+        )
     return {k: round(v, 4) for k, v in result.items()}
 
 
@@ -213,8 +243,9 @@ def main(argv=None) -> dict:
     parser.add_argument("--sea", default="es", help="sea state (tracking only)")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
-    summary, actor, loss = train(args.env, args.loss, args.seed, args.frames, args.form,
-                                 args.alpha, sea=args.sea)  # fmt: skip
+    summary, actor, loss = train(
+        args.env, args.loss, args.seed, args.frames, args.form, args.alpha, sea=args.sea
+    )
     if args.env == "tracking":
         summary.update(evaluate_tracking(actor, loss, args.seed, args.sea))
     summary["returns"] = summary["returns"][-20:]

@@ -37,15 +37,21 @@ def main(argv=None) -> None:
     env = DataCollectionEnv(batch_size=[4], sea_state="es", seed=0, flatten_agents=True)
     obs_dim = env.observation_spec["observation"].shape[-1]
     act_dim = env.action_spec.shape[-1]
-    net = nn.Sequential(MLP(in_features=obs_dim, out_features=2 * act_dim, num_cells=[64, 64]),
-                        NormalParamExtractor())  # fmt: skip
+    net = nn.Sequential(
+        MLP(in_features=obs_dim, out_features=2 * act_dim, num_cells=[64, 64]),
+        NormalParamExtractor(),
+    )
     actor = ProbabilisticActor(
         TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
-        in_keys=["loc", "scale"], distribution_class=TanhNormal,
-        distribution_kwargs={"low": -1.0, "high": 1.0}, spec=env.action_spec,
-    )  # fmt: skip
-    qvalue = ValueOperator(MLP(in_features=obs_dim + act_dim, out_features=1, num_cells=[64, 64]),
-                           in_keys=["observation", "action"])  # fmt: skip
+        in_keys=["loc", "scale"],
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": -1.0, "high": 1.0},
+        spec=env.action_spec,
+    )
+    qvalue = ValueOperator(
+        MLP(in_features=obs_dim + act_dim, out_features=1, num_cells=[64, 64]),
+        in_keys=["observation", "action"],
+    )
     loss = SACLoss(actor, qvalue, action_spec=env.action_spec)
     loss.make_value_estimator(gamma=0.99)
     updater = SoftUpdate(loss, eps=0.995)
@@ -55,8 +61,9 @@ def main(argv=None) -> None:
     td = env.reset()
     for i in range(args.iterations):
         with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):  # sample actions
-            rollout = env.rollout(args.steps, actor, tensordict=td, auto_reset=False,
-                                  break_when_any_done=False)  # fmt: skip
+            rollout = env.rollout(
+                args.steps, actor, tensordict=td, auto_reset=False, break_when_any_done=False
+            )
         td = env.step_mdp(rollout[..., -1])
         td = env.reset(td) if td["done"].any() else td  # resets the scenes that ended
         frames = rollout.exclude("sim", ("next", "sim")).reshape(-1)  # the one key to drop
@@ -70,10 +77,12 @@ def main(argv=None) -> None:
             optimiser.step()
             updater.step()
         full = rollout[..., 0].bytes() // rollout.batch_size[0]
-        print(f"iteration {i}: {frames[0].bytes()} bytes per frame (the full rollout: {full}), "
-              f"buffer {len(buffer)} frames, mean reward "
-              f"{rollout['next', 'reward'].mean().item():.2f}, loss_qvalue "
-              f"{out['loss_qvalue'].item():.3f}, alpha {out['alpha'].item():.3f}")  # fmt: skip
+        print(
+            f"iteration {i}: {frames[0].bytes()} bytes per frame (the full rollout: {full}), "
+            f"buffer {len(buffer)} frames, mean reward "
+            f"{rollout['next', 'reward'].mean().item():.2f}, loss_qvalue "
+            f"{out['loss_qvalue'].item():.3f}, alpha {out['alpha'].item():.3f}"
+        )
 
 
 if __name__ == "__main__":

@@ -28,16 +28,30 @@ def main(argv=None) -> None:
 
     data = collect_demonstrations("tracking", episodes=4, max_steps=100, horizon=8, history=10)
     obs, act = data["observation"].shape[-1], data["action"].shape[-1]
-    proposer = DiffusionProposer(obs + 10 * (obs + act + 1), act, history_key="history",
-                                 num_candidates=5, horizon=8, num_inference_steps=20,
-                                 sampler="ddim")  # fmt: skip
+    proposer = DiffusionProposer(
+        obs + 10 * (obs + act + 1),
+        act,
+        history_key="history",
+        num_candidates=5,
+        horizon=8,
+        num_inference_steps=20,
+        sampler="ddim",
+    )
     every = max(1, args.pretrain_steps // 10)
-    result = pretrain_proposer(proposer, data, steps=args.pretrain_steps, batch_size=64, lr=1e-3,
-                               log_every=every, eval_every=args.pretrain_steps)  # fmt: skip
+    result = pretrain_proposer(
+        proposer,
+        data,
+        steps=args.pretrain_steps,
+        batch_size=64,
+        lr=1e-3,
+        log_every=every,
+        eval_every=args.pretrain_steps,
+    )
     print(f"pretraining loss {result.losses[0]:.3f} -> {result.losses[-1]:.3f}")
     state = proposer.build_state(data[-1:])  # one held-out-like state (the last sample)
-    candidates, stages = proposer.sample(state, generator=torch.Generator().manual_seed(0),
-                                         num_stages=5)  # fmt: skip
+    candidates, stages = proposer.sample(
+        state, generator=torch.Generator().manual_seed(0), num_stages=5
+    )
     print(f"candidates {tuple(candidates.shape)}: first actions {candidates[0, :, 0].tolist()}")
     print(f"plot: {plot_candidate_stages(stages[0], args.out)}")
 

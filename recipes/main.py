@@ -65,8 +65,9 @@ def main(cfg: DictConfig) -> None:
 
     run_dir = Path(HydraConfig.get().runtime.output_dir)  # runs/main/<stamp>, config in .hydra/
     lg = cfg.logger
-    logger = make_logger(lg.backend, run_dir, exp_name=lg.exp_name, project=lg.project,
-                         offline=lg.mode == "offline")  # fmt: skip
+    logger = make_logger(
+        lg.backend, run_dir, exp_name=lg.exp_name, project=lg.project, offline=lg.mode == "offline"
+    )
     log.info("main job: writing under %s", run_dir)
 
     exp = cfg.experiment

@@ -66,11 +66,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     history, action_dim = data["history", "action"].shape[-2:]
     horizon = data["action_chunk"].shape[-2]
     proposer = DiffusionProposer(
-        obs_dim + history * (obs_dim + action_dim + 1), action_dim, state_key="observation",
-        history_key="history", num_candidates=args.num_candidates, horizon=horizon,
-        num_inference_steps=args.num_inference_steps, sampler=args.sampler,
-        noise_model=args.noise_model, schedule=args.schedule,
-    )  # fmt: skip
+        obs_dim + history * (obs_dim + action_dim + 1),
+        action_dim,
+        state_key="observation",
+        history_key="history",
+        num_candidates=args.num_candidates,
+        horizon=horizon,
+        num_inference_steps=args.num_inference_steps,
+        sampler=args.sampler,
+        noise_model=args.noise_model,
+        schedule=args.schedule,
+    )
     out.mkdir(parents=True, exist_ok=True)
     logger = (
         get_logger(args.logger, logger_name=str(out), experiment_name="pretrain_proposer")
@@ -78,18 +84,31 @@ def main(argv: Sequence[str] | None = None) -> int:
         else None
     )
     result = pretrain_proposer(
-        proposer, data, steps=args.steps, batch_size=args.batch_size, lr=args.lr,
-        heldout_fraction=args.heldout_fraction, ema_decay=args.ema_decay, logger=logger,
-        seed=args.seed, log_every=max(1, args.steps // 100),
-        eval_every=max(1, args.steps // 10), skip_overridden=not args.keep_overridden,
-    )  # fmt: skip
+        proposer,
+        data,
+        steps=args.steps,
+        batch_size=args.batch_size,
+        lr=args.lr,
+        heldout_fraction=args.heldout_fraction,
+        ema_decay=args.ema_decay,
+        logger=logger,
+        seed=args.seed,
+        log_every=max(1, args.steps // 100),
+        eval_every=max(1, args.steps // 10),
+        skip_overridden=not args.keep_overridden,
+    )
     proposer.save(out / "proposer.pt")
-    plot_pretraining_loss(result.steps, result.losses, out / "loss.png",
-                          heldout_steps=result.heldout_steps,
-                          heldout_losses=result.heldout_losses)  # fmt: skip
+    plot_pretraining_loss(
+        result.steps,
+        result.losses,
+        out / "loss.png",
+        heldout_steps=result.heldout_steps,
+        heldout_losses=result.heldout_losses,
+    )
     state = proposer.build_state(data[:1])
-    _, stages = proposer.sample(state, generator=torch.Generator().manual_seed(args.seed),
-                                num_stages=5)  # fmt: skip
+    _, stages = proposer.sample(
+        state, generator=torch.Generator().manual_seed(args.seed), num_stages=5
+    )
     plot_candidate_stages(stages[0], out / "candidates.png")
     metrics = {
         "samples": len(data),

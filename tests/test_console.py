@@ -17,14 +17,19 @@ CONSOLE = Path(sys.executable).parent / "torchrl-auv"
 def test_every_command_names_a_script_of_the_recipes_folder():
     for command, (script, _) in COMMANDS.items():
         assert (recipes_dir() / script).is_file(), command
-    assert command_line(["train", "framework=sac"]) == [str(recipes_dir() / "train.py"),
-                                                         "framework=sac"]  # fmt: skip
+    assert command_line(["train", "framework=sac"]) == [
+        str(recipes_dir() / "train.py"),
+        "framework=sac",
+    ]
     assert command_line(["paper", "budget=quick"])[0].endswith("paper/run_all.py")
 
 
-WRONG = [(["trian"], "command must be one of"), ([], "command must be one of"),
-         (["sweep"], "sweep needs the sweep's name"),
-         (["sweep", "seed=1"], "sweep needs the sweep's name")]  # fmt: skip
+WRONG = [
+    (["trian"], "command must be one of"),
+    ([], "command must be one of"),
+    (["sweep"], "sweep needs the sweep's name"),
+    (["sweep", "seed=1"], "sweep needs the sweep's name"),
+]
 
 
 @pytest.mark.parametrize(("argv", "named"), WRONG)
@@ -47,11 +52,25 @@ def test_train_runs_the_recipe_from_any_folder(tmp_path):
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
     run_dir = tmp_path / "run"
     done = subprocess.run(
-        [str(CONSOLE), "train", "framework=sac", "preset=quick", "collector.total_frames=200",
-         "collector.frames_per_batch=100", "collector.init_random_frames=100",
-         "optim.updates_per_batch=4", "eval.steps=20", "logger.backend=", f"run_dir={run_dir}"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
+        [
+            str(CONSOLE),
+            "train",
+            "framework=sac",
+            "preset=quick",
+            "collector.total_frames=200",
+            "collector.frames_per_batch=100",
+            "collector.init_random_frames=100",
+            "optim.updates_per_batch=4",
+            "eval.steps=20",
+            "logger.backend=",
+            f"run_dir={run_dir}",
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert "- frames: 200" in (run_dir / "summary.md").read_text()
 
@@ -60,10 +79,18 @@ def test_train_help_names_the_frameworks_presets_and_sweeps_it_takes():
     """``train --help`` lists this script's choices, read here from the recipes folder, and
     not the other scripts' configs (Hydra's own list named every folder of recipes/)."""
     done = subprocess.run(
-        [sys.executable, str(recipes_dir() / "train.py"), "framework=sac", "preset=quick",
-         "--help"], env={**os.environ, "OMP_NUM_THREADS": "1"}, capture_output=True, text=True,
+        [
+            sys.executable,
+            str(recipes_dir() / "train.py"),
+            "framework=sac",
+            "preset=quick",
+            "--help",
+        ],
+        env={**os.environ, "OMP_NUM_THREADS": "1"},
+        capture_output=True,
+        text=True,
         timeout=300,
-    )  # fmt: skip
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     choices, config = done.stdout.split("== Config", 1)
     frameworks = sorted(p.stem for p in (recipes_dir() / "framework").glob("*.yaml"))

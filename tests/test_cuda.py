@@ -49,12 +49,16 @@ def test_the_env_on_cuda_sees_the_cpu_scenes_and_steps_alike():
     cpu, cuda = _expert_rollout("cpu"), _expert_rollout(CUDA)
     assert cuda.device.type == "cuda" and cuda["agents", "observation"].is_cuda
     # the first observation: the same scene, drawn on the CPU generator
-    torch.testing.assert_close(cuda["agents", "observation"][:, 0].cpu(),
-                               cpu["agents", "observation"][:, 0],
-                               rtol=1e-4, atol=1e-4)  # fmt: skip
+    torch.testing.assert_close(
+        cuda["agents", "observation"][:, 0].cpu(),
+        cpu["agents", "observation"][:, 0],
+        rtol=1e-4,
+        atol=1e-4,
+    )
     # ten decisions of 20 Hz physics later: the same costs within float32 round-off
-    torch.testing.assert_close(cuda["next", "agents", "cost"].cpu(),
-                               cpu["next", "agents", "cost"], rtol=1e-3, atol=1e-3)  # fmt: skip
+    torch.testing.assert_close(
+        cuda["next", "agents", "cost"].cpu(), cpu["next", "agents", "cost"], rtol=1e-3, atol=1e-3
+    )
 
 
 def test_the_proposer_proposes_on_cuda():
@@ -73,8 +77,9 @@ def test_a_learner_updates_its_parameters_on_cuda(learner):
         loss, _ = make_sac_loss(actor, make_q_critic(env, (32, 32)).to(CUDA), env)
     else:
         # no .to() on the loss: the task critic and the dual variables follow the actor
-        loss = make_lac_loss(actor, make_lyapunov_critic(env, (32,)).to(CUDA), env,
-                             cost="stability", hidden=(32,))  # fmt: skip
+        loss = make_lac_loss(
+            actor, make_lyapunov_critic(env, (32,)).to(CUDA), env, cost="stability", hidden=(32,)
+        )
     with set_exploration_type(ExplorationType.RANDOM):
         batch = select_for_replay(env.rollout(6, actor)).reshape(-1)
     before = [p.detach().clone() for p in loss.parameters()]
@@ -90,26 +95,41 @@ def test_a_learner_updates_its_parameters_on_cuda(learner):
 
 
 TINY = {
-    "sac": ["collector.frames_per_batch=100", "collector.init_random_frames=100",
-            "optim.updates_per_batch=4"],
-    "diffusion_lac": ["collector.frames_per_batch=100", "proposer.demo_episodes=2",
-                      "proposer.demo_steps=30", "proposer.pretrain_steps=20",
-                      "proposer.dagger_steps=10", "proposer.num_inference_steps=2",
-                      "optim.updates_per_batch=2"],
-}  # fmt: skip
+    "sac": [
+        "collector.frames_per_batch=100",
+        "collector.init_random_frames=100",
+        "optim.updates_per_batch=4",
+    ],
+    "diffusion_lac": [
+        "collector.frames_per_batch=100",
+        "proposer.demo_episodes=2",
+        "proposer.demo_steps=30",
+        "proposer.pretrain_steps=20",
+        "proposer.dagger_steps=10",
+        "proposer.num_inference_steps=2",
+        "optim.updates_per_batch=2",
+    ],
+}
 
 
 @pytest.mark.parametrize("recipe", sorted(TINY))
 def test_a_recipe_trains_and_evaluates_with_device_cuda(tmp_path, recipe):
     run_dir = tmp_path / "run"
-    command = [sys.executable, f"recipes/{recipe}/train.py", "--config-name=quick",
-               "device=cuda", "collector.total_frames=200", "eval.steps=10",
-               "logger.backend=", f"run_dir={run_dir}", *TINY[recipe]]  # fmt: skip
+    command = [
+        sys.executable,
+        f"recipes/{recipe}/train.py",
+        "--config-name=quick",
+        "device=cuda",
+        "collector.total_frames=200",
+        "eval.steps=10",
+        "logger.backend=",
+        f"run_dir={run_dir}",
+        *TINY[recipe],
+    ]
     if recipe != "sac":
         command.append(f"proposer.cache_dir={tmp_path / 'first_stage'}")
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
-    result = subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True,
-                            timeout=600)  # fmt: skip
+    result = subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-4000:]
     with open(run_dir / "eval.csv") as handle:
         rows = list(csv.DictReader(handle))

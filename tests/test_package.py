@@ -114,8 +114,9 @@ try:
 except ImportError as error:
     print(error)
 """
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                            timeout=300)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300
+    )
     assert result.returncode == 0, result.stderr[-2000:]
     frames, message = result.stdout.strip().splitlines()[-2:]
     assert frames == "5" and "collector.backend='ray' needs Ray" in message

@@ -49,18 +49,23 @@ print("torchrl_auv", torchrl_auv.__version__, "from", torchrl_auv.__file__)
 
 
 def _run(argv: list[str], cwd: Path, env: dict[str, str], timeout: int = 1800) -> str:
-    done = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True,
-                          timeout=timeout)  # fmt: skip
-    assert done.returncode == 0, f"{argv} exited {done.returncode}:\n{done.stdout[-3000:]}\n" \
-                                 f"{done.stderr[-3000:]}"  # fmt: skip
+    done = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    assert done.returncode == 0, (
+        f"{argv} exited {done.returncode}:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    )
     return done.stdout
 
 
 @pytest.mark.slow
 def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
-    env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", WANDB_MODE="offline",
-               HOME=str(tmp_path / "home"), PIP_DISABLE_PIP_VERSION_CHECK="1")  # fmt: skip
+    env.update(
+        OMP_NUM_THREADS="1",
+        MKL_NUM_THREADS="1",
+        WANDB_MODE="offline",
+        HOME=str(tmp_path / "home"),
+        PIP_DISABLE_PIP_VERSION_CHECK="1",
+    )
     dist = tmp_path / "dist"
     # an sdist, then the wheel built from it (what `python -m build` does): what the wheel
     # needs must be in the sdist too
@@ -70,8 +75,7 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
     venv.create(tmp_path / "venv", with_pip=True)
     python = tmp_path / "venv" / "bin" / "python"
     _run([str(python), "-m", "pip", "install", "--quiet", TORCH], cwd=tmp_path, env=env)
-    _run([str(python), "-m", "pip", "install", "--quiet", TORCH, str(wheel)], cwd=tmp_path,
-         env=env)  # fmt: skip
+    _run([str(python), "-m", "pip", "install", "--quiet", TORCH, str(wheel)], cwd=tmp_path, env=env)
 
     work = tmp_path / "user"
     work.mkdir()
@@ -80,14 +84,25 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
     assert "torchrl_auv/DataCollection-v2 observation (76,)" in out
     assert "DataCollectionEnv rollout (2, 3)" in out
 
-    out = _run([str(python), str(REPO / "examples" / "lac_vs_sac.py"), "--env", "pendulum",
-                "--frames", "1000"], cwd=work, env=env)  # fmt: skip
+    out = _run(
+        [
+            str(python),
+            str(REPO / "examples" / "lac_vs_sac.py"),
+            "--env",
+            "pendulum",
+            "--frames",
+            "1000",
+        ],
+        cwd=work,
+        env=env,
+    )
     print(out)
 
     job = Job("diffusion_lac", "ideal", "s_surface", 0)
     overrides = job.overrides("quick", root=work, frames=400)
-    out = _run([str(tmp_path / "venv" / "bin" / "torchrl-auv"), "train", *overrides], cwd=work,
-               env=env)  # fmt: skip
+    out = _run(
+        [str(tmp_path / "venv" / "bin" / "torchrl-auv"), "train", *overrides], cwd=work, env=env
+    )
     summary = work / "jobs" / job.name / "summary.md"
     text = summary.read_text()
     print(text)

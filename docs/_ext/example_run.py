@@ -37,13 +37,25 @@ class ExampleRun(SphinxDirective):
         figures.mkdir(exist_ok=True)
         argv = shlex.split(self.arguments[0].format(figures=figures))
         shown = self.arguments[0].format(figures=".")
-        env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-               "WANDB_MODE": "offline", "PYTHONPATH": str(ROOT)}  # fmt: skip
-        done = subprocess.run([sys.executable, *argv], cwd=ROOT, env=env, capture_output=True,
-                              text=True, timeout=TIMEOUT_S)  # fmt: skip
+        env = {
+            **os.environ,
+            "OMP_NUM_THREADS": "1",
+            "MKL_NUM_THREADS": "1",
+            "WANDB_MODE": "offline",
+            "PYTHONPATH": str(ROOT),
+        }
+        done = subprocess.run(
+            [sys.executable, *argv],
+            cwd=ROOT,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+        )
         if done.returncode != 0:
-            raise ExtensionError(f"{shown} exited with {done.returncode}:\n"
-                                 f"{done.stdout}\n{done.stderr}")  # fmt: skip
+            raise ExtensionError(
+                f"{shown} exited with {done.returncode}:\n{done.stdout}\n{done.stderr}"
+            )
         command = nodes.literal_block(text=f"$ python {shown}", language="console")
         printed = done.stdout.rstrip().replace(str(figures), ".") or "(no output)"
         out: list[nodes.Node] = [command, nodes.literal_block(text=printed, language="text")]

@@ -29,15 +29,17 @@ def main(cfg: DictConfig) -> None:
     #    proposer.cache_dir, shared by every recipe and sweep job; or proposer.path)
     stage = training.first_stage_from_config(cfg, plot_loss=report.plot_pretraining_loss)
     proposer = stage.proposer.to(cfg.device)
-    policy = training.proposer_alone(proposer, cfg.proposer.alone_pick,
-                                     num_candidates=cfg.proposer.alone_candidates,
-                                     replan_every=cfg.proposer.alone_replan_every)  # fmt: skip
+    policy = training.proposer_alone(
+        proposer,
+        cfg.proposer.alone_pick,
+        num_candidates=cfg.proposer.alone_candidates,
+        replan_every=cfg.proposer.alone_replan_every,
+    )
 
     # 2. run it (checkpoint: the frame count; the proposer itself is cached by the first stage)
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
     remaining = run.restore({})
-    collector = training.collector_from_config(cfg, policy, env=env,
-                                               total_frames=max(remaining, 1))  # fmt: skip
+    collector = training.collector_from_config(cfg, policy, env=env, total_frames=max(remaining, 1))
     run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
         run.progress.frames += data.numel()

@@ -74,15 +74,15 @@ def main(cfg: DictConfig) -> None:
         )
     advising = training.AdvisorLoop(cfg, run.dir, run.logger, learner.loss)
     buffer = training.buffer_from_config(cfg, run.dir)
-    remaining = run.restore({**learner.checkpoint_modules(), **advising.checkpoint_modules()},
-                            buffer)  # resume: the newest  # fmt: skip
+    remaining = run.restore(
+        {**learner.checkpoint_modules(), **advising.checkpoint_modules()}, buffer
+    )  # resume: the newest
     next_keys = training.next_state_keys(cfg)  # what the critics' backup reads of s'
     if not bound:
         training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
     # 3. collect with the policy, train from the buffer, consult the advisor
-    collector = training.collector_from_config(cfg, policy, env=env,
-                                               total_frames=max(remaining, 1))  # fmt: skip
+    collector = training.collector_from_config(cfg, policy, env=env, total_frames=max(remaining, 1))
     run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
         if bound:  # the prior's action at the next state, for the actor's next action

@@ -75,8 +75,7 @@ def main(cfg: DictConfig) -> None:
         training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
     # 3. collect with the policy, train from the buffer
-    collector = training.collector_from_config(cfg, policy, env=env,
-                                               total_frames=max(remaining, 1))  # fmt: skip
+    collector = training.collector_from_config(cfg, policy, env=env, total_frames=max(remaining, 1))
     run.track(eval_policy=policy)
     for data in collector if remaining > 0 else ():
         if bound:  # the prior's action at the next state, for the actor's next action

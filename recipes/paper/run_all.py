@@ -72,8 +72,9 @@ def run_job(job: grid.Job, cfg: DictConfig, root: Path) -> tuple[str, str, float
     with open(logfile, "a") as out:
         out.write(f"\n$ {sys.executable} {TRAIN} {' '.join(overrides)}\n")
         out.flush()
-        code = subprocess.call([sys.executable, str(TRAIN), *overrides], stdout=out,
-                               stderr=subprocess.STDOUT, env=env)  # fmt: skip
+        code = subprocess.call(
+            [sys.executable, str(TRAIN), *overrides], stdout=out, stderr=subprocess.STDOUT, env=env
+        )
     seconds = time.perf_counter() - start
     if code != 0:
         return job.name, f"FAILED (exit {code}; log {logfile})", seconds
@@ -97,14 +98,20 @@ def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | N
     first to start building it; where that builder failed, its jobs fail unrun. With a
     ``stored`` results store, each job is stored as it finishes. Returns the names of the
     jobs that failed."""
-    log.info("%d jobs (%s budget) under %s, %d at a time", len(jobs), cfg.budget, root,
-             cfg.parallel)  # fmt: skip
+    log.info(
+        "%d jobs (%s budget) under %s, %d at a time", len(jobs), cfg.budget, root, cfg.parallel
+    )
     start, failed = time.perf_counter(), []
     waiting, running = list(jobs), {}
     unended = {job.name for job in jobs}
     now = lambda: datetime.datetime.now(datetime.timezone.utc).isoformat()  # noqa: E731
-    sitting = {"start": now(), "end": None, "jobs_finished": 0, "machine": platform.node(),
-               "parallel": int(cfg.parallel)}  # fmt: skip
+    sitting = {
+        "start": now(),
+        "end": None,
+        "jobs_finished": 0,
+        "machine": platform.node(),
+        "parallel": int(cfg.parallel),
+    }
 
     def blocked(job: grid.Job) -> str | None:
         """Why ``job`` cannot start now: ``"wait"``, ``"failed"`` or ``None`` (ready)."""
@@ -140,8 +147,9 @@ def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | N
             for job in [job for job in waiting if blocked(job) == "failed"]:
                 waiting.remove(job)
                 builder = grid.first_stage_job(job).name
-                ended(job, f"FAILED (not run: {builder}, which builds its first stage, failed)",
-                      0.0)  # fmt: skip
+                ended(
+                    job, f"FAILED (not run: {builder}, which builds its first stage, failed)", 0.0
+                )
             while len(running) < int(cfg.parallel):
                 job = next((job for job in waiting if blocked(job) is None), None)
                 if job is None:
@@ -169,8 +177,11 @@ def run_jobs(jobs: list[grid.Job], cfg: DictConfig, root: Path, stored: Path | N
 def main(cfg: DictConfig) -> None:
     if cfg.budget not in grid.BUDGETS:
         raise ValueError(f"budget must be one of {sorted(grid.BUDGETS)}, got {cfg.budget!r}")
-    seeds = list(cfg.seeds) if cfg.seeds is not None else ([0, 1] if cfg.budget == "quick"
-                                                           else [0, 1, 2])  # fmt: skip
+    seeds = (
+        list(cfg.seeds)
+        if cfg.seeds is not None
+        else ([0, 1] if cfg.budget == "quick" else [0, 1, 2])
+    )
     if cfg.budget == "paper" and cfg.frames is None:
         cfg.frames = 50_000
     experiments = list(cfg.experiments)
@@ -180,8 +191,10 @@ def main(cfg: DictConfig) -> None:
     if cfg.get("status"):  # how far the grid has run; nothing is run or written
         sittings = store.read_sittings(stored) if stored else []
         status = grid_status(root, jobs, store=stored, sittings=sittings)
-        print(f"{len(jobs)} jobs ({cfg.budget} budget, seeds {seeds}) under {root}"
-              + (f", results store {stored}" if stored else ""))  # fmt: skip
+        print(
+            f"{len(jobs)} jobs ({cfg.budget} budget, seeds {seeds}) under {root}"
+            + (f", results store {stored}" if stored else "")
+        )
         print(format_status(status))
         if not (root / "jobs").is_dir():
             print(f"(no jobs/ folder under {root}: is run_root the grid's run folder?)")
@@ -190,17 +203,24 @@ def main(cfg: DictConfig) -> None:
         sync_store(root, stored, jobs)
     failed = run_jobs(jobs, cfg, root, stored) if cfg.jobs else []
     if cfg.report:
-        written = write_report(root, experiments, seeds=seeds, budget=cfg.budget,
-                               frames=cfg.frames, command=" ".join(sys.argv),
-                               config=OmegaConf.to_container(cfg, resolve=True))  # fmt: skip
+        written = write_report(
+            root,
+            experiments,
+            seeds=seeds,
+            budget=cfg.budget,
+            frames=cfg.frames,
+            command=" ".join(sys.argv),
+            config=OmegaConf.to_container(cfg, resolve=True),
+        )
         for path in written:
             log.info("wrote %s", path)
         if stored is not None:  # what the report made from first stages alone (Fig. 5/6)
             store.save_finished(root, stored, jobs, report=True)
     if cfg.get("page"):
         sittings = store.read_sittings(stored) if stored else []
-        page = write_results_page(root, cfg.page, seeds=seeds, jobs=jobs, experiments=experiments,
-                                  sittings=sittings)  # fmt: skip
+        page = write_results_page(
+            root, cfg.page, seeds=seeds, jobs=jobs, experiments=experiments, sittings=sittings
+        )
         log.info("wrote the results page %s", page)
     if failed:
         log.error("%d jobs failed: %s", len(failed), ", ".join(failed))

@@ -34,8 +34,9 @@ def main(cfg: DictConfig) -> None:
 
     # collector: the frames still to go, random actions first
     random_frames = max(0, cfg.collector.init_random_frames - run.progress.frames)
-    collector = training.collector_from_config(cfg, actor, env=env, total_frames=max(remaining, 1),
-                                               init_random_frames=random_frames)  # fmt: skip
+    collector = training.collector_from_config(
+        cfg, actor, env=env, total_frames=max(remaining, 1), init_random_frames=random_frames
+    )
     run.track(eval_policy=actor)
     stored_bytes = None
     for data in collector if remaining > 0 else ():

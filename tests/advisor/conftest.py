@@ -18,10 +18,20 @@ import pytest
 def completion(content=None, tool_arguments=None):
     message = {"role": "assistant", "content": content}
     if tool_arguments is not None:
-        message["tool_calls"] = [{"id": "call_1", "type": "function", "function": {
-            "name": "set_lyapunov_function", "arguments": tool_arguments}}]  # fmt: skip
-    return {"id": "chatcmpl-1", "object": "chat.completion", "created": 0, "model": "fake",
-            "choices": [{"index": 0, "finish_reason": "stop", "message": message}]}  # fmt: skip
+        message["tool_calls"] = [
+            {
+                "id": "call_1",
+                "type": "function",
+                "function": {"name": "set_lyapunov_function", "arguments": tool_arguments},
+            }
+        ]
+    return {
+        "id": "chatcmpl-1",
+        "object": "chat.completion",
+        "created": 0,
+        "model": "fake",
+        "choices": [{"index": 0, "finish_reason": "stop", "message": message}],
+    }
 
 
 def reply(status=200, content=None, tool_arguments=None, delay=0.0):

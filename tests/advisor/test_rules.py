@@ -33,15 +33,19 @@ FEEDBACK = [
     # (feedback, expected (form, prior, alpha))
     (TrainingFeedback(violation_rate=0.7), ("log", None, 0.1)),
     (TrainingFeedback(violation_rate=0.7, position_oscillation=0.9), ("log", None, 0.1)),
-    (TrainingFeedback(position_oscillation=0.4, velocity_oscillation=0.1),
-     ("squared", "position", 0.3)),
-    (TrainingFeedback(position_oscillation=0.1, velocity_oscillation=0.45),
-     ("squared", "velocity", 0.3)),
+    (
+        TrainingFeedback(position_oscillation=0.4, velocity_oscillation=0.1),
+        ("squared", "position", 0.3),
+    ),
+    (
+        TrainingFeedback(position_oscillation=0.1, velocity_oscillation=0.45),
+        ("squared", "velocity", 0.3),
+    ),
     (TrainingFeedback(collisions=2), ("softplus", "position", 0.3)),
     (TrainingFeedback(return_trend=-0.3, lyapunov_trend=0.2), ("softplus", None, 0.3)),
     (TrainingFeedback(return_trend=-0.3, lyapunov_trend=-0.2), ("softplus", None, 0.2)),
     (TrainingFeedback(), ("softplus", None, 0.2)),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize(("feedback", "expected"), FEEDBACK)
@@ -52,11 +56,13 @@ def test_feedback_decisions_follow_the_table(feedback, expected):
 
 def test_forms_saturate_and_alpha_stays_in_range():
     advisor = RuleBasedAdvisor()
-    gentle = advisor.propose("", TrainingFeedback(violation_rate=1.0),
-                             LyapunovSpec(form="log", alpha=0.05))  # fmt: skip
+    gentle = advisor.propose(
+        "", TrainingFeedback(violation_rate=1.0), LyapunovSpec(form="log", alpha=0.05)
+    )
     assert (gentle.form, gentle.alpha) == ("log", 0.05) and "snapped" in gentle.reasons[0]
-    strong = advisor.propose("", TrainingFeedback(position_oscillation=1.0),
-                             LyapunovSpec(form="squared", alpha=0.5))  # fmt: skip
+    strong = advisor.propose(
+        "", TrainingFeedback(position_oscillation=1.0), LyapunovSpec(form="squared", alpha=0.5)
+    )
     assert (strong.form, strong.alpha) == ("squared", 0.5)
 
 

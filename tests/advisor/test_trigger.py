@@ -40,9 +40,14 @@ class _Counting:
 
 def _trigger(tmp_path, cooldown=0):
     advisor = _Counting()
-    trigger = AdvisorTrigger(advisor, "hold depth", log_path=tmp_path / "advisor.jsonl",
-                             cooldown=cooldown, violation=VIOLATION,
-                             worsening=WORSENING)  # fmt: skip
+    trigger = AdvisorTrigger(
+        advisor,
+        "hold depth",
+        log_path=tmp_path / "advisor.jsonl",
+        cooldown=cooldown,
+        violation=VIOLATION,
+        worsening=WORSENING,
+    )
     assert trigger.step(0, None, _Loss()) is not None and advisor.calls == 1  # the start
     return trigger, advisor
 
@@ -50,14 +55,22 @@ def _trigger(tmp_path, cooldown=0):
 # (feedback field, [(value, fires?)]): fires exactly on the documented side of the threshold
 CROSSINGS = {
     "violation_rate": [
-        (0.0, False), (0.39, False), (VIOLATION, True), (0.5, True), (1.0, True),
+        (0.0, False),
+        (0.39, False),
+        (VIOLATION, True),
+        (0.5, True),
+        (1.0, True),
     ],
     "return_trend": [  # fires when return_trend <= -WORSENING = -0.2
-        (0.5, False), (0.0, False), (-0.15, False), (-0.19, False), (-WORSENING, True),
+        (0.5, False),
+        (0.0, False),
+        (-0.15, False),
+        (-0.19, False),
+        (-WORSENING, True),
         (-0.5, True),
     ],
     "collisions": [(0.0, False), (1.0, True), (3.0, True)],
-}  # fmt: skip
+}
 
 
 @pytest.mark.parametrize("field", list(CROSSINGS))
@@ -102,9 +115,13 @@ def test_alpha_and_form_index_reach_the_csv_logger(tmp_path):
     rate >= 0.6 twice -> one form gentler and alpha x 0.5 each time. form_index is the form's
     place in the documented gentle-to-aggressive order log < softplus < squared."""
     logger = CSVLogger(exp_name="advisor-test", log_dir=str(tmp_path / "logs"))
-    trigger = AdvisorTrigger(RuleBasedAdvisor(), "tight depth hold",
-                             log_path=tmp_path / "advisor.jsonl", cooldown=500,
-                             logger=logger)  # fmt: skip
+    trigger = AdvisorTrigger(
+        RuleBasedAdvisor(),
+        "tight depth hold",
+        log_path=tmp_path / "advisor.jsonl",
+        cooldown=500,
+        logger=logger,
+    )
     loss = _Loss(LyapunovSpec(form="log", alpha=0.3))
     violating = TrainingFeedback(violation_rate=0.7)
     trigger.step(0, None, loss)  # start: squared, 0.2

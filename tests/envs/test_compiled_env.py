@@ -23,10 +23,16 @@ def test_compiled_env_matches_eager_over_1000_decisions():
     assert eager["next", "agents", "observation"].shape[1] == 1000
     for key in (("next", "agents", "observation"), ("next", "agents", "cost")):
         torch.testing.assert_close(compiled[key], eager[key], rtol=0, atol=1e-4, msg=str(key))
-    assert torch.equal(compiled["next", "sim", "task", "auvs", "target"],
-                       eager["next", "sim", "task", "auvs", "target"])  # fmt: skip
-    torch.testing.assert_close(compiled["next", "sim", "truth", "eta"],
-                               eager["next", "sim", "truth", "eta"], rtol=0, atol=1e-3)  # fmt: skip
+    assert torch.equal(
+        compiled["next", "sim", "task", "auvs", "target"],
+        eager["next", "sim", "task", "auvs", "target"],
+    )
+    torch.testing.assert_close(
+        compiled["next", "sim", "truth", "eta"],
+        eager["next", "sim", "truth", "eta"],
+        rtol=0,
+        atol=1e-3,
+    )
 
 
 def _assert_leaves_close(want, got, tol):

@@ -87,8 +87,17 @@ def test_the_simulator_state_is_one_key_and_the_rest_fits_in_1_kb_per_frame():
     assert {"truth", "kf", "task", "ocean", "sensors", "setpoint"} <= set(td["sim"].keys())
     assert ("truth", "eta") in sim_leaves
     kept = td.exclude(SIM_KEY, ("next", SIM_KEY))
-    assert set(kept.keys()) == {"agents", "cost_terms", "done", "metrics", "next", "overridden",
-                                "step_count", "terminated", "truncated"}  # fmt: skip
+    assert set(kept.keys()) == {
+        "agents",
+        "cost_terms",
+        "done",
+        "metrics",
+        "next",
+        "overridden",
+        "step_count",
+        "terminated",
+        "truncated",
+    }
     per_frame = kept.bytes() / td.numel()
     assert per_frame <= 1024, per_frame
     assert td.bytes() / td.numel() > 10 * per_frame  # the simulator state is the bulk
@@ -125,8 +134,9 @@ def test_observation_is_the_estimate_not_the_truth():
     x_low = obs[..., FEATURE["edge_x_low"]] * env.config.area_m[0]
     y_high = obs[..., FEATURE["edge_y_high"]] * env.config.area_m[1]
     torch.testing.assert_close(x_low, estimate[..., 0], rtol=1e-5, atol=1e-3)
-    torch.testing.assert_close(y_high, env.config.area_m[1] - estimate[..., 1], rtol=1e-5,
-                               atol=1e-3)  # fmt: skip
+    torch.testing.assert_close(
+        y_high, env.config.area_m[1] - estimate[..., 1], rtol=1e-5, atol=1e-3
+    )
 
 
 def test_the_current_and_altitude_features_are_the_vehicles_own_measurements():
@@ -148,8 +158,13 @@ def test_the_current_and_altitude_features_are_the_vehicles_own_measurements():
 
     eta = nxt["sim", "truth", "eta"]
     terrain = nxt["sim", "task", "terrain"]
-    seabed = torch.stack([iout.seabed_depth(terrain[:, t], eta[:, t, :, 0], eta[:, t, :, 1],
-                                            env.config) for t in range(30)], 1)  # fmt: skip
+    seabed = torch.stack(
+        [
+            iout.seabed_depth(terrain[:, t], eta[:, t, :, 0], eta[:, t, :, 1], env.config)
+            for t in range(30)
+        ],
+        1,
+    )
     true_altitude = seabed - eta[..., 2]
     seen = obs[..., FEATURE["altitude"]] * h_max
     near = true_altitude < 29.0
@@ -179,9 +194,13 @@ def test_an_auv_in_service_gets_the_station_keepers_setpoints():
     sensors = before["sim", "sensors"]
     altitude = torch.where(sensors["altitude_valid"], sensors["altitude"], torch.nan)
     depth, heading, rpm = iout.station_keeping_setpoints(
-        eta_hat[:, 0, :3], eta_hat[:, 0, 5], node[:, 0], sensors["current"][:, 0],
-        altitude[:, 0], env.station_keeping,
-    )  # fmt: skip
+        eta_hat[:, 0, :3],
+        eta_hat[:, 0, 5],
+        node[:, 0],
+        sensors["current"][:, 0],
+        altitude[:, 0],
+        env.station_keeping,
+    )
     torch.testing.assert_close(out["sim", "setpoint"][:, 0], torch.stack((depth, heading, rpm), -1))
     assert out["overridden"][:, 0].all() and not out["overridden"][:, 1].any()
     # not in service: 0.7 -> depth + 0.56 m (above the seabed the altimeter sees, if any),
@@ -241,8 +260,9 @@ def test_leaving_the_area_terminates_with_the_termination_cost():
     assert out["agents", "cost"].item() >= env.termination_cost
     stability_end = env.cost_weights.stability_termination_cost()
     w = env.cost_weights  # distance, regress, collision and violation at their weights
-    assert stability_end == pytest.approx((w.distance + w.regress + w.collision + w.violation)
-                                          / (1 - 0.99))  # fmt: skip
+    assert stability_end == pytest.approx(
+        (w.distance + w.regress + w.collision + w.violation) / (1 - 0.99)
+    )
     assert out["agents", "stability_cost"].item() >= stability_end
 
 
@@ -382,9 +402,13 @@ def test_the_default_termination_cost_outweighs_any_continuation():
 
 @pytest.mark.parametrize(
     ("key", "index", "value"),
-    [(("sim", "truth", "eta"), 0, float("nan")), (("sim", "truth", "eta"), 1, float("nan")),
-     (("sim", "truth", "nu"), 0, float("inf")), (("sim", "truth", "actuators"), 2, float("nan"))],
-)  # fmt: skip
+    [
+        (("sim", "truth", "eta"), 0, float("nan")),
+        (("sim", "truth", "eta"), 1, float("nan")),
+        (("sim", "truth", "nu"), 0, float("inf")),
+        (("sim", "truth", "actuators"), 2, float("nan")),
+    ],
+)
 def test_a_non_finite_auv_terminates_and_its_peers_are_truncated(key, index, value):
     env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=10, termination_cost=37.0)
     td = env.reset()
@@ -410,14 +434,17 @@ def test_a_non_finite_auv_terminates_and_its_peers_are_truncated(key, index, val
 
 @pytest.mark.parametrize(
     ("key", "index", "value"),
-    [(("sim", "truth", "nu"), 4, 6.0),  # finite but absurd: a 6 rad/s pitch rate loops the AUV
-     (("sim", "truth", "eta"), 0, -110.0)],  # 110 m outside the area (exit margin 100 m)
-)  # fmt: skip
+    [
+        (("sim", "truth", "nu"), 4, 6.0),  # finite but absurd: a 6 rad/s pitch rate loops the AUV
+        (("sim", "truth", "eta"), 0, -110.0),
+    ],  # 110 m outside the area (exit margin 100 m)
+)
 def test_the_auv_that_ends_the_episode_pays_its_cost_plus_the_termination_cost(key, index, value):
     costs = []
     for termination_cost in (0.0, 37.0):
-        env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=10,
-                                termination_cost=termination_cost)  # fmt: skip
+        env = DataCollectionEnv(
+            batch_size=[2], seed=0, num_sensors=10, termination_cost=termination_cost
+        )
         td = env.reset()
         td[key][0, 1, index] = value  # scene 0, AUV 1
         td["agents", "action"] = torch.zeros(2, 2, 3)
@@ -576,8 +603,9 @@ def test_reward_key_is_the_reward_and_scaling_every_reward_key_keeps_cost_and_re
     from torchrl.envs import RewardScaling, TransformedEnv
 
     def make():
-        return DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5,
-                                 flatten_agents=flatten_agents)  # fmt: skip
+        return DataCollectionEnv(
+            batch_size=[2], seed=0, num_sensors=5, flatten_agents=flatten_agents
+        )
 
     env = make()
     assert env.reward_key == ("reward" if flatten_agents else ("agents", "reward"))

@@ -97,8 +97,15 @@ def test_overridden_decisions_are_marked_and_end_the_chunks_before_them():
     """Decisions the env overrode (station keeping in service) carry ``overridden`` (the
     env's own flag, recomputed here from the rollout), and a chunk stops at the first later
     overridden decision: it only holds actions that were executed."""
-    data = collect_demonstrations("data_collection", episodes=2, max_steps=150, horizon=8,
-                                  history=2, rate_model="paper", seed=2)  # fmt: skip
+    data = collect_demonstrations(
+        "data_collection",
+        episodes=2,
+        max_steps=150,
+        horizon=8,
+        history=2,
+        rate_model="paper",
+        seed=2,
+    )
     flags = data["overridden"]
     assert flags.dtype == torch.bool and flags.any() and (~flags).any()
     rows = data.reshape(2 * 2, 150)  # [scene x AUV, decision]
@@ -118,20 +125,36 @@ def test_chunks_never_cross_an_episode_end():
     done = torch.tensor([[False, False, True, False, False, False]])
     chunks, mask = _chunks(actions, done, 3)
     assert chunks[0, :, :, 0].tolist() == [
-        [0, 1, 2], [1, 2, 2], [2, 2, 2], [3, 4, 5], [4, 5, 5], [5, 5, 5]
-    ]  # fmt: skip
+        [0, 1, 2],
+        [1, 2, 2],
+        [2, 2, 2],
+        [3, 4, 5],
+        [4, 5, 5],
+        [5, 5, 5],
+    ]
     assert mask[0].sum(-1).tolist() == [3, 2, 1, 3, 2, 1]
 
 
 def test_cli_writes_a_data_collection_dataset(tmp_path):
     out = tmp_path / "demos_dc"
     subprocess.run(
-        [sys.executable, "-m", "torchrl_auv.cli.demonstrations", "--env", "data_collection",
-         "--episodes", "1", "--max-steps", "4", "--out", str(out)],
+        [
+            sys.executable,
+            "-m",
+            "torchrl_auv.cli.demonstrations",
+            "--env",
+            "data_collection",
+            "--episodes",
+            "1",
+            "--max-steps",
+            "4",
+            "--out",
+            str(out),
+        ],
         check=True,
         capture_output=True,
         timeout=300,
-    )  # fmt: skip
+    )
     buffer = load_demonstrations(out)
     assert len(buffer) == 8  # 1 scene x 2 AUVs x 4 decisions
     batch = buffer.sample(3)
@@ -148,9 +171,13 @@ def test_another_policy_acts_and_the_expert_labels_the_states_it_visits():
     from torchrl_auv.envs.experts import _collection_action
 
     data = collect_demonstrations(
-        "data_collection", episodes=2, max_steps=6, horizon=3, history=2,
+        "data_collection",
+        episodes=2,
+        max_steps=6,
+        horizon=3,
+        history=2,
         policy=lambda env: RandomPolicy(env.full_action_spec),
-    )  # fmt: skip
+    )
     expert = _collection_action(data["observation"], iout.IoUTConfig(), iout.ExpertConfig())
     torch.testing.assert_close(data["action"], expert.to(data["action"].dtype))
     assert (data["executed"] - data["action"]).abs().mean() > 0.3  # random, not the expert
@@ -162,8 +189,14 @@ def test_another_policy_acts_and_the_expert_labels_the_states_it_visits():
 def test_batches_do_not_depend_on_the_number_of_workers():
     from torchrl_auv.envs.demonstrations import collect_demonstration_batches
 
-    options = {"env": "data_collection", "episodes": 1, "max_steps": 4, "horizon": 2,
-               "history": 2, "seed": 3}  # fmt: skip
+    options = {
+        "env": "data_collection",
+        "episodes": 1,
+        "max_steps": 4,
+        "horizon": 2,
+        "history": 2,
+        "seed": 3,
+    }
     one = collect_demonstration_batches(2, workers=1, **options)
     two = collect_demonstration_batches(2, workers=2, **options)
     assert one["batch"].tolist() == two["batch"].tolist() == [0] * 8 + [1] * 8
@@ -182,12 +215,25 @@ def test_a_sampling_policys_batches_depend_on_seed_and_batch_alone():
     from torchrl_auv.training.first_stage_build import _dagger_policy, untrained_proposer
 
     torch.manual_seed(0)
-    model = {"noise_model": "mlp", "hidden": 16, "cond_dim": 8, "depth": 1,
-             "schedule": "linear", "num_train_steps": 50}  # fmt: skip
+    model = {
+        "noise_model": "mlp",
+        "hidden": 16,
+        "cond_dim": 8,
+        "depth": 1,
+        "schedule": "linear",
+        "num_train_steps": 50,
+    }
     proposer = untrained_proposer(38, 3, history=2, horizon=2, model=model)
     proposer.configure_sampling(num_inference_steps=2, sampler="ddim")
-    options = {"env": "data_collection", "episodes": 1, "max_steps": 6, "horizon": 2,
-               "history": 2, "seed": 3, "policy": partial(_dagger_policy, proposer)}  # fmt: skip
+    options = {
+        "env": "data_collection",
+        "episodes": 1,
+        "max_steps": 6,
+        "horizon": 2,
+        "history": 2,
+        "seed": 3,
+        "policy": partial(_dagger_policy, proposer),
+    }
     runs = [collect_demonstration_batches(2, workers=w, **options) for w in (1, 2, 2)]
     for other in runs[1:]:
         torch.testing.assert_close(runs[0]["executed"], other["executed"], rtol=0, atol=0)
@@ -224,9 +270,10 @@ def test_collection_workers_end_when_their_parent_is_killed():
         "if __name__ == '__main__':\n"
         "    collect_demonstration_batches(2, workers=2, env='data_collection', episodes=2,\n"
         "                                  max_steps=100000, horizon=2, history=2)\n"
-    )  # fmt: skip
-    parent = subprocess.Popen([sys.executable, "-c", script],
-                              env={**os.environ, "OMP_NUM_THREADS": "1"})  # fmt: skip
+    )
+    parent = subprocess.Popen(
+        [sys.executable, "-c", script], env={**os.environ, "OMP_NUM_THREADS": "1"}
+    )
     deadline = time.monotonic() + 120
     workers: list[int] = []
     while len(workers) < 2 and time.monotonic() < deadline:  # killed as soon as they exist,

@@ -58,13 +58,15 @@ def test_the_lazy_expert_rests_as_the_idle_policy_then_works_as_the_expert():
 
 @pytest.mark.parametrize(
     ("make", "error"),
-    [(lambda env: IdlePolicy(env, depths_m=(8.0, 30.0)), "depths_m"),
-     (lambda env: IdlePolicy(env, rpm=400.0), "rpm"),
-     (lambda env: IdlePolicy(env, turn_m=150.0), "turn_m"),
-     (lambda env: LazyExpert(env, duty=1.0), "duty"),
-     (lambda env: LazyExpert(env, period=1), "period"),
-     (lambda env: IdlePolicy(AUVTrackingEnv(batch_size=[1], seed=0)), "DataCollectionEnv")],
-)  # fmt: skip
+    [
+        (lambda env: IdlePolicy(env, depths_m=(8.0, 30.0)), "depths_m"),
+        (lambda env: IdlePolicy(env, rpm=400.0), "rpm"),
+        (lambda env: IdlePolicy(env, turn_m=150.0), "turn_m"),
+        (lambda env: LazyExpert(env, duty=1.0), "duty"),
+        (lambda env: LazyExpert(env, period=1), "period"),
+        (lambda env: IdlePolicy(AUVTrackingEnv(batch_size=[1], seed=0)), "DataCollectionEnv"),
+    ],
+)
 def test_bad_arguments_are_errors_naming_them(make, error):
     with pytest.raises(ValueError, match=error):
         make(DataCollectionEnv(batch_size=[1], seed=0))
@@ -85,12 +87,24 @@ def test_serving_nothing_costs_at_least_twice_the_experts_cost():
 
 def test_card_checks_read_the_ranking_and_name_what_fails():
     def row(policy, cost, sdr, se=0.01):
-        return {"preset": "es", "rate_model": "shannon", "policy": policy, "cost_mean": cost,
-                "cost_mean_se": se, "discounted_cost_0.99": 100 * cost,
-                "discounted_cost_0.99_se": 100 * se, "sdr_mbit": sdr}  # fmt: skip
+        return {
+            "preset": "es",
+            "rate_model": "shannon",
+            "policy": policy,
+            "cost_mean": cost,
+            "cost_mean_se": se,
+            "discounted_cost_0.99": 100 * cost,
+            "discounted_cost_0.99_se": 100 * se,
+            "sdr_mbit": sdr,
+        }
 
-    good = [row("expert", 0.3, 20), row("lazy", 0.6, 8), row("idle", 1.1, 0),
-            row("random", 5.0, 0), row("exit", 7.0, 0)]  # fmt: skip
+    good = [
+        row("expert", 0.3, 20),
+        row("lazy", 0.6, 8),
+        row("idle", 1.1, 0),
+        row("random", 5.0, 0),
+        row("exit", 7.0, 0),
+    ]
     assert all(line.endswith("holds") for line in card_checks(good))
     close = [row("expert", 0.3, 20), row("lazy", 0.31, 8, se=0.02), *good[2:]]
     failed = [line for line in card_checks(close) if line.endswith("FAILS")]
@@ -102,8 +116,9 @@ def test_card_checks_read_the_ranking_and_name_what_fails():
 
 
 def test_the_card_prints_the_mission_and_the_cost_per_sea_and_policy(capsys):
-    rows = main(["--presets", "ideal", "--policies", "expert", "idle", "--scenes", "2",
-                 "--steps", "15"])  # fmt: skip
+    rows = main(
+        ["--presets", "ideal", "--policies", "expert", "idle", "--scenes", "2", "--steps", "15"]
+    )
     assert [(r["preset"], r["policy"]) for r in rows] == [("ideal", "expert"), ("ideal", "idle")]
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("| sea | rate | policy | SDR (Mbit) | SSN |")

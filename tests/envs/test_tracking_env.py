@@ -181,8 +181,9 @@ def test_the_usbl_fix_comes_from_the_asv_with_its_gnss_error_and_pulls_the_estim
     truth = out["truth", "eta"][:, :3]
     asv = torch.stack((truth[:, 0] + 30.0, truth[:, 1], torch.zeros(2)), -1)
     bearing = math.hypot(math.radians(0.1), math.radians(0.5))
-    fix, fix_cov, valid = usbl_fix(truth, asv, 0.005, bearing, g, dropout=0.05,
-                                   asv_error=gnss, asv_error_sigma=1.5)  # fmt: skip
+    fix, fix_cov, valid = usbl_fix(
+        truth, asv, 0.005, bearing, g, dropout=0.05, asv_error=gnss, asv_error_sigma=1.5
+    )
     assert valid.all()  # this seed loses no fix
     h = torch.cat([torch.eye(3), torch.zeros(3, 3)], 1)
     want_mean, want_cov = kf_update(vehicles["kf", "mean"], vehicles["kf", "cov"], fix, h, fix_cov)
@@ -206,10 +207,13 @@ def test_the_usbl_fix_comes_from_the_asv_with_its_gnss_error_and_pulls_the_estim
 
 @pytest.mark.parametrize(
     ("key", "index", "value"),
-    [(("truth", "eta"), 0, float("nan")), (("truth", "nu"), 0, float("inf")),
-     (("truth", "actuators"), 2, float("nan")),
-     (("truth", "nu"), 4, 6.0)],  # finite but absurd: a 6 rad/s pitch rate loops the vehicle
-)  # fmt: skip
+    [
+        (("truth", "eta"), 0, float("nan")),
+        (("truth", "nu"), 0, float("inf")),
+        (("truth", "actuators"), 2, float("nan")),
+        (("truth", "nu"), 4, 6.0),
+    ],  # finite but absurd: a 6 rad/s pitch rate loops the vehicle
+)
 def test_a_diverged_state_terminates_that_vehicle_only(key, index, value):
     env = AUVTrackingEnv(batch_size=[2], seed=0)
     td = env.reset()

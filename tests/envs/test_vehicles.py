@@ -74,11 +74,13 @@ def test_bad_input():
     g = torch.Generator().manual_seed(0)
     vehicles, setpoint = _fleet(stack)
     with pytest.raises(ValueError, match="seabed_depth"):
-        stack.decide(vehicles, setpoint, ocean.reset_ocean("ideal", (2,), generator=g), 0.0,
-                     generator=g)  # fmt: skip
+        stack.decide(
+            vehicles, setpoint, ocean.reset_ocean("ideal", (2,), generator=g), 0.0, generator=g
+        )
     with pytest.raises(ValueError, match="prefix"):
-        stack.decide(vehicles, setpoint, ocean.reset_ocean("ideal", (3,), generator=g), 50.0,
-                     generator=g)  # fmt: skip
+        stack.decide(
+            vehicles, setpoint, ocean.reset_ocean("ideal", (3,), generator=g), 50.0, generator=g
+        )
     with pytest.raises(ValueError, match="unroll"):
         VehicleStack(ocean.get_sea_state("ideal"), make_controller("pid"), unroll=3)
 
@@ -134,8 +136,9 @@ def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
     for k in range(steps):
         eta_hat, nu_hat = _estimate(eta, nu, mean, heading)
         command, memory = stack.controller(setpoint, eta_hat, nu_hat, memory, dt)
-        sea_td = ocean.step_ocean(sea_td, stack.sea, dt, generator=None,
-                                  standard_normal=sea_noise[k])  # fmt: skip
+        sea_td = ocean.step_ocean(
+            sea_td, stack.sea, dt, generator=None, standard_normal=sea_noise[k]
+        )
         fleet_sea = sea_td  # every vehicle of a scene sees the scene's ocean
         if len(shape) > len(scene):
             fleet_sea = sea_td.unsqueeze(-1).expand(shape)
@@ -153,8 +156,9 @@ def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
         velocity = dvl(nu, noise.dvl, None, standard_normal=draw[..., :3])
         depth = depth_sensor(eta[..., 2], noise.depth, None, standard_normal=draw[..., 3])
         full = loc.update_onboard(mean, cov, velocity, attitude, depth)
-        depth_only = kf_update(mean, cov, depth[..., None], depth_h,
-                               torch.tensor([[noise.depth**2]], dtype=dtype))  # fmt: skip
+        depth_only = kf_update(
+            mean, cov, depth[..., None], depth_h, torch.tensor([[noise.depth**2]], dtype=dtype)
+        )
         locked = (seabed - eta[..., 2]) <= 30.0
         locked_seen |= locked
         unlocked_seen |= ~locked
@@ -164,17 +168,32 @@ def _reference_decision(stack, vehicles, setpoint, sea_td, seabed, seed):
         e_h = _angle_error(setpoint[..., 1], eta[..., 5])
         e_d = (setpoint[..., 0] - eta[..., 2]).abs()
         v_ned = (rotation_matrix(eta[..., 3:]) @ nu[..., :3, None])[..., 0]
-        water = torch.stack((current[..., 0] * torch.cos(current[..., 1]),
-                             current[..., 0] * torch.sin(current[..., 1]),
-                             current[..., 2]), -1)  # fmt: skip
+        water = torch.stack(
+            (
+                current[..., 0] * torch.cos(current[..., 1]),
+                current[..., 0] * torch.sin(current[..., 1]),
+                current[..., 2],
+            ),
+            -1,
+        )
         speed = (v_ned - water).norm(dim=-1)
-        for name, value in (("heading_error_sum", e_h), ("heading_error_sq", e_h**2),
-                            ("depth_error_sum", e_d), ("depth_error_sq", e_d**2),
-                            ("speed_sum", speed),
-                            ("shaft_power_sum", shaft_power(act[..., 2], speed))):  # fmt: skip
+        for name, value in (
+            ("heading_error_sum", e_h),
+            ("heading_error_sq", e_h**2),
+            ("depth_error_sum", e_d),
+            ("depth_error_sq", e_d**2),
+            ("speed_sum", speed),
+            ("shaft_power_sum", shaft_power(act[..., 2], speed)),
+        ):
             sums[name] = sums[name] + value
-    out = {("truth", "eta"): eta, ("truth", "nu"): nu, ("truth", "actuators"): act,
-           ("kf", "mean"): mean, ("kf", "cov"): cov, ("kf", "heading"): heading}  # fmt: skip
+    out = {
+        ("truth", "eta"): eta,
+        ("truth", "nu"): nu,
+        ("truth", "actuators"): act,
+        ("kf", "mean"): mean,
+        ("kf", "cov"): cov,
+        ("kf", "heading"): heading,
+    }
     out.update({("controller", k): v for k, v in memory.items()})
     stats = {"steps": torch.full(shape, float(steps), dtype=dtype), **sums}
     return out, sea_td, stats, touched, (locked_seen, unlocked_seen)
@@ -197,9 +216,13 @@ def _scenario(shape, dtype=torch.float64):
     seabed = torch.full(shape, 50.0, dtype=dtype)
     seabed[..., 1] = 10.0
     setpoint = torch.stack(
-        (torch.full(shape, 15.0, dtype=dtype), eta[..., 5] + 0.4,
-         torch.full(shape, 1300.0, dtype=dtype)), -1
-    )  # fmt: skip
+        (
+            torch.full(shape, 15.0, dtype=dtype),
+            eta[..., 5] + 0.4,
+            torch.full(shape, 1300.0, dtype=dtype),
+        ),
+        -1,
+    )
     setpoint[..., 0, 0] = 0.0
     return eta, nu, act, seabed, setpoint
 
@@ -221,8 +244,13 @@ def test_decide_equals_a_hand_written_loop_of_the_public_pieces(
     vehicles["kf", "mean"][..., 3] += 0.2
     vehicles["kf", "heading"] += 0.1
     vehicles["controller"].apply_(lambda m: m + 0.05)  # non-zero controller memory
-    sea = ocean.reset_ocean(stack.sea, scene, generator=torch.Generator().manual_seed(1),
-                            dtype=torch.float64, water_depth=water_depth)  # fmt: skip
+    sea = ocean.reset_ocean(
+        stack.sea,
+        scene,
+        generator=torch.Generator().manual_seed(1),
+        dtype=torch.float64,
+        water_depth=water_depth,
+    )
     before = vehicles.clone()
     got, got_sea, got_stats = stack.decide(
         vehicles, setpoint, sea, seabed, generator=torch.Generator().manual_seed(7)
@@ -256,8 +284,7 @@ def test_compiled_decide_matches_eager_at_a_small_size():
         sea_td = ocean.reset_ocean(sea, (1,), generator=g)
         out = []
         for _ in range(2):
-            vehicles, sea_td, stats = stack.decide(vehicles, setpoint, sea_td, seabed,
-                                                   generator=g)  # fmt: skip
+            vehicles, sea_td, stats = stack.decide(vehicles, setpoint, sea_td, seabed, generator=g)
             out.append((vehicles, sea_td, stats))
         return out
 
@@ -280,11 +307,16 @@ def _sums(heading_errors, depth_errors):
     """TRACKING_SUMS of per-step errors ``[V, steps]`` written out by hand."""
     h, d = torch.tensor(heading_errors), torch.tensor(depth_errors)
     return TensorDict(
-        {"steps": torch.full((h.shape[0],), float(h.shape[1])), "heading_error_sum": h.sum(-1),
-         "heading_error_sq": (h * h).sum(-1), "depth_error_sum": d.sum(-1),
-         "depth_error_sq": (d * d).sum(-1), "speed_sum": torch.ones(h.shape[0])},
+        {
+            "steps": torch.full((h.shape[0],), float(h.shape[1])),
+            "heading_error_sum": h.sum(-1),
+            "heading_error_sq": (h * h).sum(-1),
+            "depth_error_sum": d.sum(-1),
+            "depth_error_sq": (d * d).sum(-1),
+            "speed_sum": torch.ones(h.shape[0]),
+        },
         batch_size=[h.shape[0]],
-    )  # fmt: skip
+    )
 
 
 def test_tracking_errors_are_the_mean_and_std_of_the_summed_errors():
@@ -347,8 +379,9 @@ def test_waves_without_current_move_a_vehicle_near_the_surface():
     relative velocity: angle of attack, hull lift, heave damping); in still water it holds
     its depth to centimetres; at 20 m the orbital flow, and the error, are smaller."""
     ves = ocean.get_sea_state("ves")
-    waves = dataclasses.replace(ves, name="ves waves", current_mean=0.0, current_sigma=0.0,
-                                current_direction_sigma=0.0)  # fmt: skip
+    waves = dataclasses.replace(
+        ves, name="ves waves", current_mean=0.0, current_sigma=0.0, current_direction_sigma=0.0
+    )
     still = dataclasses.replace(waves, name="still", wave_hs=0.0)
     calm = _rms_depth_error(still, 5.0)
     rough = _rms_depth_error(waves, 5.0)

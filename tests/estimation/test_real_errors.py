@@ -56,10 +56,17 @@ def test_presets_carry_the_documented_localisation_errors():
 
 @pytest.mark.parametrize(
     ("field", "value"),
-    [("usbl_dropout", 1.5), ("usbl_dropout", -0.1), ("usbl_dropout", math.nan),
-     ("usbl_attitude_sigma", -0.01), ("usbl_attitude_sigma", math.inf),
-     ("gnss_sigma", -1.0), ("gnss_sigma", math.nan), ("gnss_time_constant", 0.0)],
-)  # fmt: skip
+    [
+        ("usbl_dropout", 1.5),
+        ("usbl_dropout", -0.1),
+        ("usbl_dropout", math.nan),
+        ("usbl_attitude_sigma", -0.01),
+        ("usbl_attitude_sigma", math.inf),
+        ("gnss_sigma", -1.0),
+        ("gnss_sigma", math.nan),
+        ("gnss_time_constant", 0.0),
+    ],
+)
 def test_sea_state_validation_names_the_new_fields(field, value):
     with pytest.raises(ValueError, match=f"SeaState.{field}"):
         SeaState(**{field: value})
@@ -116,8 +123,9 @@ def test_a_fix_is_biased_by_exactly_the_asvs_gnss_error():
     position = torch.randn(n, 3, generator=gen, dtype=F64) * 50 + torch.tensor([0, 0, 60.0])
     asv = torch.cat([torch.randn(n, 2, generator=gen, dtype=F64) * 30, torch.zeros(n, 1)], -1)
     error = torch.randn(n, 2, generator=gen, dtype=F64) * 1.3
-    fix, cov, valid = usbl_fix(position, asv, 0.0, 0.0, gen, min_range_sigma=0.0,
-                               asv_error=error, asv_error_sigma=1.3)  # fmt: skip
+    fix, cov, valid = usbl_fix(
+        position, asv, 0.0, 0.0, gen, min_range_sigma=0.0, asv_error=error, asv_error_sigma=1.3
+    )
     want = torch.cat([error, torch.zeros(n, 1, dtype=F64)], -1)
     torch.testing.assert_close(fix - position, want, rtol=0, atol=1e-9)
     assert valid.all()
@@ -147,8 +155,9 @@ def test_dropout_frequency_per_preset_and_the_same_draws_for_every_dropout():
     fixes, states = [], []
     for name, lost in (("ideal", 0.0), ("es", 0.05), ("ves", 0.20)):
         gen = torch.Generator().manual_seed(2)
-        sea = dataclasses.replace(SEA_STATES[name], usbl_noise_fraction=0.001,
-                                  usbl_attitude_sigma=0.0)  # fmt: skip
+        sea = dataclasses.replace(
+            SEA_STATES[name], usbl_noise_fraction=0.001, usbl_attitude_sigma=0.0
+        )
         fix, _, valid = usbl_fix_from_asv(position, asv, gnss, sea, gen)
         assert (1 - valid.float().mean().item()) == pytest.approx(lost, abs=0.01), name
         fixes.append(fix)
@@ -164,8 +173,9 @@ def test_bearing_noise_of_the_sea_state_shows_in_the_fixes():
     gen = torch.Generator().manual_seed(3)
     position = torch.tensor([100.0, 0.0, 0.0], dtype=F64).expand(n, 3)
     asv = torch.zeros(n, 3, dtype=F64)
-    fix, cov, _ = usbl_fix_from_asv(position, asv, torch.zeros(n, 2, dtype=F64),
-                                    SEA_STATES["ves"], gen)  # fmt: skip
+    fix, cov, _ = usbl_fix_from_asv(
+        position, asv, torch.zeros(n, 2, dtype=F64), SEA_STATES["ves"], gen
+    )
     azimuth = torch.atan2(fix[:, 1], fix[:, 0])
     want = math.radians(math.hypot(0.1, 0.75))
     assert azimuth.std().item() == pytest.approx(want, rel=0.03)
@@ -229,8 +239,9 @@ def test_the_dvl_update_is_skipped_exactly_without_bottom_lock():
     assert not torch.isclose(alt_mean[locked], got_mean[locked]).all(-1).any()
     # an all-True mask is the ungated update, bit for bit
     full = loc.update_onboard(mean, cov, velocity, attitude, depth)
-    gated = loc.update_onboard(mean, cov, velocity, attitude, depth,
-                               dvl_valid=torch.ones(n, dtype=torch.bool))  # fmt: skip
+    gated = loc.update_onboard(
+        mean, cov, velocity, attitude, depth, dvl_valid=torch.ones(n, dtype=torch.bool)
+    )
     assert torch.equal(full[0], gated[0]) and torch.equal(full[1], gated[1])
 
 

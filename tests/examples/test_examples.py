@@ -13,8 +13,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 def _run(*argv: str) -> str:
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.run([sys.executable, *argv], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=300)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, *argv], cwd=REPO, env=env, capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return proc.stdout
 
@@ -33,16 +34,25 @@ def test_lac_in_a_torchrl_loop_reports_the_dual_variables():
 
 
 def test_proposer_candidates_samples_k_chunks_and_plots(tmp_path):
-    out = _run("examples/proposer_candidates.py", "--pretrain-steps", "20", "--out",
-               str(tmp_path / "c.png"))  # fmt: skip
+    out = _run(
+        "examples/proposer_candidates.py",
+        "--pretrain-steps",
+        "20",
+        "--out",
+        str(tmp_path / "c.png"),
+    )
     assert "candidates (1, 5, 8, 3)" in out
     assert (tmp_path / "c.png").stat().st_size > 10_000
 
 
 def test_plain_torchrl_sac_stores_under_1_kb_per_frame_without_a_key_list():
     out = _run("examples/plain_torchrl_sac.py", "--iterations", "2", "--steps", "10")
-    lines = re.findall(r"^iteration (\d+): (\d+) bytes per frame \(the full rollout: (\d+)\), "
-                       r"buffer (\d+) frames.*loss_qvalue ([\d.]+)", out, re.M)  # fmt: skip
+    lines = re.findall(
+        r"^iteration (\d+): (\d+) bytes per frame \(the full rollout: (\d+)\), "
+        r"buffer (\d+) frames.*loss_qvalue ([\d.]+)",
+        out,
+        re.M,
+    )
     assert [int(i) for i, *_ in lines] == [0, 1]
     for i, stored, full, buffered, loss in lines:
         assert int(stored) <= 1024 < 10 * int(stored) < int(full)

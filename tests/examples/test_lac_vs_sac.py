@@ -25,8 +25,12 @@ def run(*argv: str, timeout: float = 3600) -> dict:
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     proc = subprocess.run(
         [sys.executable, "examples/lac_vs_sac.py", *argv],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout,
-    )  # fmt: skip
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
     print(json.dumps(summary))
@@ -46,10 +50,12 @@ def expected_updates(frames: int, batch: int, random_frames: int = 1000) -> int:
 
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_the_loop_runs_on_both_envs():
-    pend, track = run_all([
-        ("--env", "pendulum", "--loss", "lac", "--frames", "1500"),
-        ("--env", "tracking", "--loss", "sac", "--frames", "1600"),
-    ])  # fmt: skip
+    pend, track = run_all(
+        [
+            ("--env", "pendulum", "--loss", "lac", "--frames", "1500"),
+            ("--env", "tracking", "--loss", "sac", "--frames", "1600"),
+        ]
+    )
     # 200-step Pendulum episodes; 100 frames per batch
     assert pend["episodes"] == 1500 // 200 and pend["updates"] == expected_updates(1500, 100)
     # Pendulum's cost per step is th^2 + 0.1 thdot^2 + 0.001 u^2 <= pi^2 + 0.1 * 8^2 + 0.001 * 2^2
@@ -59,16 +65,22 @@ def test_the_loop_runs_on_both_envs():
     assert track["updates"] == expected_updates(1600, 400) and track["episodes"] == 0
     # the evaluation's errors and its return obey the env card's cost formula (one reference
     # per episode, 120 decisions): return = -120 (|e_psi|/pi + |e_z|/10 + |e_u|/2)
-    cost = (track["eval_heading_error_rad"] / math.pi + track["eval_depth_error_m"] / 10
-            + track["eval_speed_error_mps"] / 2)  # fmt: skip
+    cost = (
+        track["eval_heading_error_rad"] / math.pi
+        + track["eval_depth_error_m"] / 10
+        + track["eval_speed_error_mps"] / 2
+    )
     assert track["eval_return"] == pytest.approx(-120 * cost, abs=0.02)
     assert track["eval_diverged"] == 0.0
 
 
 @pytest.mark.slow
 def test_lac_on_torchrl_pendulum_reaches_minus_300_every_seed():
-    jobs = [("--env", "pendulum", "--loss", loss, "--seed", str(seed), "--frames", "40000")
-            for loss in ("lac", "sac") for seed in SEEDS]  # fmt: skip
+    jobs = [
+        ("--env", "pendulum", "--loss", loss, "--seed", str(seed), "--frames", "40000")
+        for loss in ("lac", "sac")
+        for seed in SEEDS
+    ]
     results = run_all(jobs)
     lac = {r["seed"]: r["last10_mean_return"] for r in results if r["loss"] == "lac"}
     sac = {r["seed"]: r["last10_mean_return"] for r in results if r["loss"] == "sac"}
@@ -79,8 +91,9 @@ def test_lac_on_torchrl_pendulum_reaches_minus_300_every_seed():
 
 @pytest.mark.slow
 def test_lac_on_tracking_es_learns_a_decreasing_lyapunov_value():
-    lac, sac = run_all([("--env", "tracking", "--loss", loss, "--frames", "40000")
-                        for loss in ("lac", "sac")])  # fmt: skip
+    lac, sac = run_all(
+        [("--env", "tracking", "--loss", loss, "--frames", "40000") for loss in ("lac", "sac")]
+    )
     keys = ("eval_heading_error_rad", "eval_depth_error_m", "eval_return")
     print("LAC:", {k: lac[k] for k in keys}, "SAC:", {k: sac[k] for k in keys})
     print("LAC Delta L <= 0 fraction:", lac["eval_delta_l_nonpositive_fraction"])

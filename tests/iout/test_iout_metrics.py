@@ -44,24 +44,48 @@ def _events(hovering, rate, completed, collision, violation, overflow, service_t
 # rate bit/s, completed, collision, violation, overflow, service time s, held distance m)
 _TOY = [
     (
-        ([False, True], [0.0, 2e5], [False, False], [False, False], [True, False], 3.0,
-         [0.0, 1.0], [40.0, 10.0]),
+        (
+            [False, True],
+            [0.0, 2e5],
+            [False, False],
+            [False, False],
+            [True, False],
+            3.0,
+            [0.0, 1.0],
+            [40.0, 10.0],
+        ),
         [2.0, 0.0],
         [100.0, 50.0],
     ),
     (  # AUV 1's service ends 0.4 s into the decision, 12 m from its node
-        ([False, True], [7e4, 2e5], [False, True], [True, True], [False, False], 0.0,
-         [0.0, 0.4], [30.0, 12.0]),
+        (
+            [False, True],
+            [7e4, 2e5],
+            [False, True],
+            [True, True],
+            [False, False],
+            0.0,
+            [0.0, 0.4],
+            [30.0, 12.0],
+        ),
         [1.5, 0.0],
         [80.0, 50.0],
     ),
     (  # AUV 0's service ends 0.6 s in, 25 m from its node (outside the 18 m radius)
-        ([True, False], [3e5, 0.0], [True, False], [False, False], [True, True], 2.0,
-         [0.6, 0.0], [25.0, 50.0]),
+        (
+            [True, False],
+            [3e5, 0.0],
+            [True, False],
+            [False, False],
+            [True, True],
+            2.0,
+            [0.6, 0.0],
+            [25.0, 50.0],
+        ),
         [0.0, 2.2],
         [40.0, 120.0],
     ),
-]  # fmt: skip
+]
 
 
 def _expected():
@@ -191,12 +215,16 @@ def test_an_auv_that_does_not_deliver_pays_more_with_every_decision_until_the_wh
     cfg = IoUTConfig(num_auvs=1, num_sensors=1)
     ages = torch.tensor([[1.0], [100.0], [cfg.age_scale], [10 * cfg.age_scale]])
     events = TensorDict(
-        {"hovering": torch.zeros(4, 1, dtype=torch.bool), "rate": torch.zeros(4, 1),
-         "service_time": torch.zeros(4, 1), "delivery_age": ages,
-         "collision": torch.zeros(4, 1, dtype=torch.bool),
-         "violation": torch.zeros(4, 1, dtype=torch.bool)},
+        {
+            "hovering": torch.zeros(4, 1, dtype=torch.bool),
+            "rate": torch.zeros(4, 1),
+            "service_time": torch.zeros(4, 1),
+            "delivery_age": ages,
+            "collision": torch.zeros(4, 1, dtype=torch.bool),
+            "violation": torch.zeros(4, 1, dtype=torch.bool),
+        },
         batch_size=[4],
-    )  # fmt: skip
+    )
     _, terms = task_cost(events, torch.zeros(4, 1), cfg)
     age = terms["delivery_age"][:, 0]
     assert (age[1:] >= age[:-1]).all() and age[0] > 0

@@ -141,8 +141,9 @@ def test_the_expert_comes_from_downstream_and_never_heads_out_near_an_edge():
     pose[0, :, 2] = 37.0
     target = torch.tensor([[[100.0, 100.0, 45.0]] * 2])
     current = torch.tensor([[[0.6, 0.0]] * 2])  # flowing north: arrive heading south
-    _, heading, _ = iout.expert_setpoints(pose, target, torch.full((1, 2, 1, 3), 1e4), cfg,
-                                          current=current)  # fmt: skip
+    _, heading, _ = iout.expert_setpoints(
+        pose, target, torch.full((1, 2, 1, 3), 1e4), cfg, current=current
+    )
     # the northern AUV is downstream, in the cone: straight for the node (south)
     assert heading[0, 0].item() == pytest.approx(math.pi)
     # the southern one is upstream, 40 m off, heading at the node: it turns away from it
@@ -151,8 +152,9 @@ def test_the_expert_comes_from_downstream_and_never_heads_out_near_an_edge():
     pose[0, 0, :2] = torch.tensor([190.0, 100.0])
     target[0, 0, :2] = torch.tensor([199.0, 140.0])
     edges = torch.tensor([[[190.0, 10.0, 100.0, 100.0]] * 2])
-    _, heading, _ = iout.expert_setpoints(pose, target, torch.full((1, 2, 1, 3), 1e4), cfg,
-                                          edges=edges)  # fmt: skip
+    _, heading, _ = iout.expert_setpoints(
+        pose, target, torch.full((1, 2, 1, 3), 1e4), cfg, edges=edges
+    )
     assert math.cos(heading[0, 0].item()) <= 1e-6  # no northward (outward) component
 
 
@@ -170,8 +172,9 @@ def test_the_expert_reaches_the_service_radius_bow_into_the_current(bearing_deg)
     for _ in range(400):
         pose = torch.tensor([[[x, y, 37.0, 0.0, 0.0, psi]]])
         edges = torch.tensor([[[x, 200.0 - x, y, 200.0 - y]]])
-        _, heading, _ = iout.expert_setpoints(pose, node.expand(1, 1, 3), torch.zeros(1, 1, 0, 3),
-                                              cfg, current=flow, edges=edges)  # fmt: skip
+        _, heading, _ = iout.expert_setpoints(
+            pose, node.expand(1, 1, 3), torch.zeros(1, 1, 0, 3), cfg, current=flow, edges=edges
+        )
         turn = math.remainder(heading.item() - psi, 2 * math.pi)
         psi += max(-0.1, min(0.1, turn))  # 2 m/s on a 20 m circle: 0.1 rad/s
         x += 2.0 * math.cos(psi) + 0.6
@@ -209,8 +212,12 @@ def test_the_keeper_holds_a_vehicle_that_arrives_bow_into_a_current():
         speed, direction = state["current_speed"], state["current_direction"]
         flow = torch.stack((speed * torch.cos(direction), speed * torch.sin(direction)), -1)
         altitude = seabed - vehicles["truth", "eta"][:, 2]
-        setpoint = torch.stack(iout.station_keeping_setpoints(
-            eta_hat[:, :3], eta_hat[:, 5], node.expand(b, 3), flow, altitude), -1)  # fmt: skip
+        setpoint = torch.stack(
+            iout.station_keeping_setpoints(
+                eta_hat[:, :3], eta_hat[:, 5], node.expand(b, 3), flow, altitude
+            ),
+            -1,
+        )
         vehicles, state, _ = stack.decide(vehicles, setpoint, state, seabed, generator=g)
         gap = (vehicles["truth", "eta"][:, :3] - node).norm(dim=-1)
         worst = torch.maximum(worst, gap)

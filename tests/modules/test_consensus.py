@@ -15,8 +15,9 @@ from torchrl_auv.modules import DiffusionProposer, ProposerAlone, medoid_index, 
 def _brute_force_medoid(chunks: torch.Tensor) -> int:
     """The candidate with the smallest summed distance, by explicit loops."""
     k = chunks.shape[0]
-    totals = [sum(float((chunks[i] - chunks[j]).pow(2).sum().sqrt()) for j in range(k))
-              for i in range(k)]  # fmt: skip
+    totals = [
+        sum(float((chunks[i] - chunks[j]).pow(2).sum().sqrt()) for j in range(k)) for i in range(k)
+    ]
     return min(range(k), key=lambda i: (totals[i], i))
 
 

@@ -28,12 +28,14 @@ def test_a_briefly_trained_proposer_closes_most_of_the_gap_from_random_to_the_ex
     Measured: cost per decision random 1.31, proposer 0.44, expert 0.36 (92 % of the gap
     closed); asserted: at least 70 %."""
     data = collect_demonstrations("tracking", episodes=16, max_steps=100, seed=0)
-    env = TransformedEnv(AUVTrackingEnv(batch_size=[8], seed=1000, max_steps=100),
-                         StateActionHistory(10))  # fmt: skip
+    env = TransformedEnv(
+        AUVTrackingEnv(batch_size=[8], seed=1000, max_steps=100), StateActionHistory(10)
+    )
     proposer = DiffusionProposer.for_env(env, action_key="action")
     torch.manual_seed(0)
-    result = pretrain_proposer(proposer, data, steps=1500, batch_size=256, lr=1e-3,
-                               log_every=500, eval_every=500)  # fmt: skip
+    result = pretrain_proposer(
+        proposer, data, steps=1500, batch_size=256, lr=1e-3, log_every=500, eval_every=500
+    )
     assert result.heldout_loss < 0.1 * result.heldout_losses[0]
     alone = _mean_cost(env, proposer, 100, seed=1000)
     expert = _mean_cost(env, ScriptedExpert(env.base_env), 100, seed=1000)
@@ -50,8 +52,9 @@ def test_proposer_acting_alone_is_within_25_percent_of_the_expert_on_held_out_se
     # acting alone: the first action of candidate 0, re-planned every decision
     proposer = DiffusionProposer.for_env(env, action_key="action")
     torch.manual_seed(0)
-    result = pretrain_proposer(proposer, data, steps=3000, batch_size=256, lr=1e-3,
-                               log_every=500, eval_every=1000)  # fmt: skip
+    result = pretrain_proposer(
+        proposer, data, steps=3000, batch_size=256, lr=1e-3, log_every=500, eval_every=1000
+    )
     assert result.heldout_loss < 0.5 * result.heldout_losses[0]
     env.set_seed(1000)  # held-out scenes: the demonstrations used seed 0
     alone = env.rollout(300, proposer, break_when_any_done=False)

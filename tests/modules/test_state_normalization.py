@@ -73,14 +73,17 @@ def test_pretraining_fits_the_standardisation_on_its_training_split():
 
 
 def test_the_cosine_schedule_anneals_the_learning_rate_to_zero():
-    data = TensorDict({"observation": torch.randn(64, 4),
-                       "action_chunk": torch.rand(64, 8, 2) * 2 - 1}, [64])  # fmt: skip
+    data = TensorDict(
+        {"observation": torch.randn(64, 4), "action_chunk": torch.rand(64, 8, 2) * 2 - 1}, [64]
+    )
     proposer = DiffusionProposer(4, 2)
     before = [p.detach().clone() for p in proposer.noise_model.parameters()]
     pretrain_proposer(proposer, data, steps=1, lr=1e-2, lr_schedule="cosine", log_every=1)
     # one step: the first step runs at the full rate (the schedule applies after it)
-    moved = sum((p - q).abs().sum().item() for p, q in
-                zip(proposer.noise_model.parameters(), before, strict=True))  # fmt: skip
+    moved = sum(
+        (p - q).abs().sum().item()
+        for p, q in zip(proposer.noise_model.parameters(), before, strict=True)
+    )
     assert moved > 0
     with pytest.raises(ValueError, match="lr_schedule"):
         pretrain_proposer(proposer, data, steps=1, lr_schedule="step")

@@ -24,11 +24,15 @@ OBS, ACT, K = 3, 2, 4
 
 
 def _actor():
-    net = nn.Sequential(MLP(in_features=OBS, out_features=2 * ACT, num_cells=[16]),
-                        NormalParamExtractor())  # fmt: skip
-    return ProbabilisticActor(TensorDictModule(net, ["observation"], ["loc", "scale"]),
-                              in_keys=["loc", "scale"], distribution_class=TanhNormal,
-                              return_log_prob=True)  # fmt: skip
+    net = nn.Sequential(
+        MLP(in_features=OBS, out_features=2 * ACT, num_cells=[16]), NormalParamExtractor()
+    )
+    return ProbabilisticActor(
+        TensorDictModule(net, ["observation"], ["loc", "scale"]),
+        in_keys=["loc", "scale"],
+        distribution_class=TanhNormal,
+        return_log_prob=True,
+    )
 
 
 class _CatLinear(nn.Linear):
@@ -39,8 +43,9 @@ class _CatLinear(nn.Linear):
 
 
 def _critic(out_keys=None):
-    return ValueOperator(_CatLinear(OBS + ACT, 1), in_keys=["observation", "action"],
-                         out_keys=out_keys)  # fmt: skip
+    return ValueOperator(
+        _CatLinear(OBS + ACT, 1), in_keys=["observation", "action"], out_keys=out_keys
+    )
 
 
 def _batch(n=8, seed=0, terminated_rows=(0,)):
@@ -80,8 +85,10 @@ def test_the_anchored_rule_deviates_only_where_the_best_dominates_the_anchor():
     # row 0: 3.0 > 1.5 deviates; row 1: 3.0 < 3.2 keeps the anchor; row 2: 3.0 > 2.5 deviates
     assert rule.choose(lower, upper, anchor).tolist() == [1, 2, 1]
     assert SelectionRule(anchor="medoid", margin=0.6).choose(lower, upper, anchor).tolist() == [
-        1, 2, 2,
-    ]  # fmt: skip
+        1,
+        2,
+        2,
+    ]
     rule.deviate.fill_(False)  # the warm-up: always the anchor
     assert rule.choose(lower, upper, anchor).tolist() == [0, 2, 2]
     assert SelectionRule().choose(lower, upper).tolist() == [1, 1, 1]  # argmax of lower
@@ -89,8 +96,9 @@ def test_the_anchored_rule_deviates_only_where_the_best_dominates_the_anchor():
         SelectionRule(anchor="medoid").choose(lower, upper)
 
 
-@pytest.mark.parametrize(("kwargs", "named"), [({"anchor": "mean"}, "anchor"),
-                                               ({"margin": -1.0}, "margin")])  # fmt: skip
+@pytest.mark.parametrize(
+    ("kwargs", "named"), [({"anchor": "mean"}, "anchor"), ({"margin": -1.0}, "margin")]
+)
 def test_a_bad_rule_names_the_argument(kwargs, named):
     with pytest.raises(ValueError, match=named):
         SelectionRule(**kwargs)
@@ -139,8 +147,9 @@ def test_the_anchored_selector_keeps_the_medoid_unless_the_ensemble_agrees_on_a_
 def test_the_sac_target_bootstraps_on_the_executed_candidate(anchor):
     torch.manual_seed(0)
     rule = SelectionRule(anchor=anchor)
-    loss = CandidateBackupSACLoss(_actor(), _critic(), backup="candidates", rule=rule,
-                                  target_entropy=-float(ACT))  # fmt: skip
+    loss = CandidateBackupSACLoss(
+        _actor(), _critic(), backup="candidates", rule=rule, target_entropy=-float(ACT)
+    )
     loss.make_value_estimator(gamma=0.9)
     with torch.no_grad():  # distinct target members
         loss.target_qvalue_network_params["module", "weight"].normal_()
@@ -148,8 +157,9 @@ def test_the_sac_target_bootstraps_on_the_executed_candidate(anchor):
     nxt = td["next"]
     cands = nxt["proposer", "first_actions"]
     obs = nxt["observation"].unsqueeze(-2).expand(-1, K, -1)
-    members = torch.stack([_linear(loss.target_qvalue_network_params[i], obs, cands)[..., 0]
-                           for i in range(2)])  # fmt: skip
+    members = torch.stack(
+        [_linear(loss.target_qvalue_network_params[i], obs, cands)[..., 0] for i in range(2)]
+    )
     lower, upper = members.min(0).values, members.max(0).values
     index = rule.choose(lower, upper, nxt["proposer", "medoid"])
     bootstrap = lower.gather(-1, index[:, None])
@@ -173,8 +183,9 @@ def test_the_actor_backup_is_torchrls_sac_target():
 
 
 def test_a_candidate_backup_without_stored_candidates_says_what_to_store():
-    loss = CandidateBackupSACLoss(_actor(), _critic(), backup="candidates",
-                                  target_entropy=-float(ACT))  # fmt: skip
+    loss = CandidateBackupSACLoss(
+        _actor(), _critic(), backup="candidates", target_entropy=-float(ACT)
+    )
     td = _batch()
     del td["next", "proposer"]
     with pytest.raises(ValueError, match="with_next_candidates"):
@@ -188,8 +199,9 @@ def test_both_lac_critics_bootstrap_on_the_candidate_argmin_l_executes():
     torch.manual_seed(0)
     rule = SelectionRule(anchor="medoid")
     q = _critic(out_keys=["task_q"])
-    loss = LyapunovActorCriticLoss(_actor(), _critic(), qvalue_network=q, form="softplus",
-                                   backup="candidates", rule=rule)  # fmt: skip
+    loss = LyapunovActorCriticLoss(
+        _actor(), _critic(), qvalue_network=q, form="softplus", backup="candidates", rule=rule
+    )
     loss.set_keys(qvalue="task_q", task_cost="cost")
     loss.make_value_estimator(gamma=0.9)
     td = _batch()
@@ -202,10 +214,12 @@ def test_both_lac_critics_bootstrap_on_the_candidate_argmin_l_executes():
     chosen = cands[torch.arange(len(index)), index]
     continues = (~nxt["terminated"]).float()
     l_target = nxt["cost"] + 0.9 * continues * values[torch.arange(len(index)), index]
-    q_target = nxt["cost"] + 0.9 * continues * _linear(loss.target_qvalue_network_params,
-                                                       nxt["observation"], chosen)  # fmt: skip
-    l_now = lyapunov_value(_linear(loss.lyapunov_network_params, td["observation"],
-                                   td["action"]), spec)  # fmt: skip
+    q_target = nxt["cost"] + 0.9 * continues * _linear(
+        loss.target_qvalue_network_params, nxt["observation"], chosen
+    )
+    l_now = lyapunov_value(
+        _linear(loss.lyapunov_network_params, td["observation"], td["action"]), spec
+    )
     q_now = _linear(loss.qvalue_network_params, td["observation"], td["action"])
     out = loss(td)
     torch.testing.assert_close(out["loss_lyapunov"], 0.5 * (l_now - l_target).square().mean())

@@ -19,16 +19,17 @@ class _ActionScore(nn.Module):
 
 
 def _critic():
-    return TensorDictModule(_ActionScore(), in_keys=["observation", "action"],
-                            out_keys=["state_action_value"])  # fmt: skip
+    return TensorDictModule(
+        _ActionScore(), in_keys=["observation", "action"], out_keys=["state_action_value"]
+    )
 
 
 def _data():
     candidates = torch.zeros(2, 5, 8, 2)
-    candidates[..., 0, 0] = torch.tensor([[0.1, 0.9, -0.5, 0.3, 0.0],
-                                          [-0.2, -0.9, 0.4, 0.8, 0.5]])  # fmt: skip
-    return TensorDict({"observation": torch.zeros(2, 3), ("proposer", "candidates"): candidates},
-                      batch_size=[2])  # fmt: skip
+    candidates[..., 0, 0] = torch.tensor([[0.1, 0.9, -0.5, 0.3, 0.0], [-0.2, -0.9, 0.4, 0.8, 0.5]])
+    return TensorDict(
+        {"observation": torch.zeros(2, 3), ("proposer", "candidates"): candidates}, batch_size=[2]
+    )
 
 
 def test_q_mode_picks_the_argmax_and_ranks_best_first():
@@ -83,9 +84,13 @@ def test_exploration_draws_from_the_generator():
 
 @pytest.mark.parametrize(
     ("kwargs", "argument"),
-    [({"mode": "random"}, "mode"), ({"exploration": "ucb"}, "exploration"),
-     ({"temperature": 0.0}, "temperature"), ({"epsilon": 1.5}, "epsilon")],
-)  # fmt: skip
+    [
+        ({"mode": "random"}, "mode"),
+        ({"exploration": "ucb"}, "exploration"),
+        ({"temperature": 0.0}, "temperature"),
+        ({"epsilon": 1.5}, "epsilon"),
+    ],
+)
 def test_bad_input_names_the_argument(kwargs, argument):
     with pytest.raises(ValueError, match=argument):
         CandidateSelector(_critic(), **kwargs)

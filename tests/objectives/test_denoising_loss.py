@@ -91,15 +91,28 @@ def test_the_loss_is_the_masked_noise_prediction_error_by_hand():
     noise eps is recovered from the model's input, abar from the linear schedule's formula."""
     T, n, horizon = 10, 512, 8
     low, high = torch.tensor([-2.0, 0.0]), torch.tensor([2.0, 1.0])
-    proposer = DiffusionProposer(4, 2, horizon=horizon, num_train_steps=T, num_inference_steps=2,
-                                 action_low=low, action_high=high)  # fmt: skip
+    proposer = DiffusionProposer(
+        4,
+        2,
+        horizon=horizon,
+        num_train_steps=T,
+        num_inference_steps=2,
+        action_low=low,
+        action_high=high,
+    )
     model = proposer.noise_model
     proposer.noise_model = recorder = _Recorder(model)
     g = torch.Generator().manual_seed(0)
     action = low + (high - low) * (torch.rand(n, horizon, 2, generator=g) * 1.2 - 0.1)
     mask = torch.rand(n, horizon, generator=g) < 0.7
-    td = TensorDict({"observation": torch.randn(n, 4, generator=g), "action_chunk": action,
-                     "action_chunk_mask": mask}, batch_size=[n])  # fmt: skip
+    td = TensorDict(
+        {
+            "observation": torch.randn(n, 4, generator=g),
+            "action_chunk": action,
+            "action_chunk_mask": mask,
+        },
+        batch_size=[n],
+    )
     loss = DenoisingLoss(proposer, generator=torch.Generator().manual_seed(1))(td)
     ((x_t, t, state),) = recorder.calls
     betas = [1e-4 + (0.02 - 1e-4) * k / (T - 1) for k in range(T)]
@@ -138,8 +151,9 @@ def test_the_unet_noise_model_learns():
     and noise before and after) clearly below 1 = E[eps^2], the loss of the best input-blind
     predictor (eps_theta = 0); measured ~0.56 over four initialisations."""
     widths = {"channels": (16, 32), "cond_dim": 32}
-    proposer = DiffusionProposer(4, 2, noise_model="unet", horizon=8, num_train_steps=100,
-                                 noise_model_kwargs=widths)  # fmt: skip
+    proposer = DiffusionProposer(
+        4, 2, noise_model="unet", horizon=8, num_train_steps=100, noise_model_kwargs=widths
+    )
     loss = DenoisingLoss(proposer)
     td = _data(n=64)
     before = _loss_value(loss, td, seed=123).item()

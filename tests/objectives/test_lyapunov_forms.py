@@ -20,8 +20,9 @@ def test_the_forms_behave_as_documented():
     sq = LyapunovSpec(form="squared")
     log = LyapunovSpec(form="log")
     # log is quadratic near zero (relaxes like squared) ...
-    torch.testing.assert_close(lyapunov_value(small, log), lyapunov_value(small, sq), rtol=1e-3,
-                               atol=0.0)  # fmt: skip
+    torch.testing.assert_close(
+        lyapunov_value(small, log), lyapunov_value(small, sq), rtol=1e-3, atol=0.0
+    )
     # ... and grows only logarithmically far away (gentle far from the goal)
     assert lyapunov_value(large, log) < 0.02 * lyapunov_value(large, sq)
     # softplus uses the first raw output and is positive everywhere

@@ -16,18 +16,24 @@ OBS, ACT = 3, 2
 
 
 def _actor():
-    net = nn.Sequential(MLP(in_features=OBS, out_features=2 * ACT, num_cells=[32]),
-                        NormalParamExtractor())  # fmt: skip
+    net = nn.Sequential(
+        MLP(in_features=OBS, out_features=2 * ACT, num_cells=[32]), NormalParamExtractor()
+    )
     module = TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"])
     return ProbabilisticActor(
-        module, in_keys=["loc", "scale"], distribution_class=TanhNormal,
-        distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=True,
-    )  # fmt: skip
+        module,
+        in_keys=["loc", "scale"],
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": -1.0, "high": 1.0},
+        return_log_prob=True,
+    )
 
 
 def _critic(out=16):
-    return ValueOperator(MLP(in_features=OBS + ACT, out_features=out, num_cells=[32]),
-                         in_keys=["observation", "action"])  # fmt: skip
+    return ValueOperator(
+        MLP(in_features=OBS + ACT, out_features=out, num_cells=[32]),
+        in_keys=["observation", "action"],
+    )
 
 
 def _batch(n=64, cost=0.5, seed=0):
@@ -50,15 +56,19 @@ def _batch(n=64, cost=0.5, seed=0):
 
 def _loss(**kwargs):
     torch.manual_seed(0)
-    return LyapunovActorCriticLoss(_actor(), _critic(), form=kwargs.pop("form", "squared"),
-                                   **kwargs)  # fmt: skip
+    return LyapunovActorCriticLoss(
+        _actor(), _critic(), form=kwargs.pop("form", "squared"), **kwargs
+    )
 
 
 def test_output_keys_and_only_four_loss_terms():
     out = _loss()(_batch())
     assert sorted(k for k in out.keys() if k.startswith("loss")) == [
-        "loss_actor", "loss_beta", "loss_lambda", "loss_lyapunov"
-    ]  # fmt: skip
+        "loss_actor",
+        "loss_beta",
+        "loss_lambda",
+        "loss_lyapunov",
+    ]
     for key in ("lambda", "beta", "delta_l", "violation_rate"):
         assert key in out.keys() and not out[key].requires_grad
 
@@ -234,8 +244,11 @@ def test_a_cost_key_set_with_set_keys_must_be_in_the_data():
 
 
 def test_a_critic_that_does_not_write_the_value_key_names_both_keys():
-    critic = ValueOperator(MLP(in_features=OBS + ACT, out_features=16, num_cells=[32]),
-                           in_keys=["observation", "action"], out_keys=["lyapunov"])  # fmt: skip
+    critic = ValueOperator(
+        MLP(in_features=OBS + ACT, out_features=16, num_cells=[32]),
+        in_keys=["observation", "action"],
+        out_keys=["lyapunov"],
+    )
     loss = LyapunovActorCriticLoss(_actor(), critic, form="squared")
     with pytest.raises(ValueError, match=r"'value' key 'state_action_value'.*\['lyapunov'\]"):
         loss(_batch())
@@ -245,37 +258,55 @@ def test_a_critic_that_does_not_write_the_value_key_names_both_keys():
 
 def test_multi_agent_keys_via_set_keys():
     n_agents = 2
-    net = nn.Sequential(MLP(in_features=OBS, out_features=2 * ACT, num_cells=[32]),
-                        NormalParamExtractor())  # fmt: skip
+    net = nn.Sequential(
+        MLP(in_features=OBS, out_features=2 * ACT, num_cells=[32]), NormalParamExtractor()
+    )
     actor = ProbabilisticActor(
-        TensorDictModule(net, in_keys=[("agents", "observation")],
-                         out_keys=[("agents", "loc"), ("agents", "scale")]),
+        TensorDictModule(
+            net,
+            in_keys=[("agents", "observation")],
+            out_keys=[("agents", "loc"), ("agents", "scale")],
+        ),
         in_keys={"loc": ("agents", "loc"), "scale": ("agents", "scale")},
-        out_keys=[("agents", "action")], distribution_class=TanhNormal,
+        out_keys=[("agents", "action")],
+        distribution_class=TanhNormal,
         distribution_kwargs={"low": -1.0, "high": 1.0},
-    )  # fmt: skip
-    critic = ValueOperator(MLP(in_features=OBS + ACT, out_features=16, num_cells=[32]),
-                           in_keys=[("agents", "observation"), ("agents", "action")],
-                           out_keys=[("agents", "state_action_value")])  # fmt: skip
+    )
+    critic = ValueOperator(
+        MLP(in_features=OBS + ACT, out_features=16, num_cells=[32]),
+        in_keys=[("agents", "observation"), ("agents", "action")],
+        out_keys=[("agents", "state_action_value")],
+    )
     loss = LyapunovActorCriticLoss(actor, critic, form="squared")
-    loss.set_keys(action=("agents", "action"), reward=("agents", "reward"),
-                  cost=("agents", "cost"), terminated=("agents", "terminated"),
-                  done=("agents", "done"), value=("agents", "state_action_value"),
-                  observation=("agents", "observation"))  # fmt: skip
+    loss.set_keys(
+        action=("agents", "action"),
+        reward=("agents", "reward"),
+        cost=("agents", "cost"),
+        terminated=("agents", "terminated"),
+        done=("agents", "done"),
+        value=("agents", "state_action_value"),
+        observation=("agents", "observation"),
+    )
     b = 8
     agents = lambda **kw: TensorDict(kw, batch_size=[b, n_agents])  # noqa: E731
     data = TensorDict(
         {
-            "agents": agents(observation=torch.randn(b, n_agents, OBS),
-                             action=torch.rand(b, n_agents, ACT) * 2 - 1),
-            "next": {"agents": agents(
+            "agents": agents(
                 observation=torch.randn(b, n_agents, OBS),
-                reward=-torch.rand(b, n_agents, 1), cost=torch.rand(b, n_agents, 1),
-                terminated=torch.zeros(b, n_agents, 1, dtype=torch.bool),
-                done=torch.zeros(b, n_agents, 1, dtype=torch.bool))},
+                action=torch.rand(b, n_agents, ACT) * 2 - 1,
+            ),
+            "next": {
+                "agents": agents(
+                    observation=torch.randn(b, n_agents, OBS),
+                    reward=-torch.rand(b, n_agents, 1),
+                    cost=torch.rand(b, n_agents, 1),
+                    terminated=torch.zeros(b, n_agents, 1, dtype=torch.bool),
+                    done=torch.zeros(b, n_agents, 1, dtype=torch.bool),
+                )
+            },
         },
         batch_size=[b],
-    )  # fmt: skip
+    )
     out = loss(data)
     for key in ("loss_actor", "loss_lyapunov", "loss_lambda", "loss_beta"):
         assert out[key].shape == () and torch.isfinite(out[key]), key

@@ -39,8 +39,9 @@ class _Dirac(torch.distributions.Distribution):
 
     def __init__(self, loc: torch.Tensor) -> None:
         self.loc = loc
-        super().__init__(batch_shape=loc.shape[:-1], event_shape=loc.shape[-1:],
-                         validate_args=False)  # fmt: skip
+        super().__init__(
+            batch_shape=loc.shape[:-1], event_shape=loc.shape[-1:], validate_args=False
+        )
 
     def rsample(self, sample_shape=()) -> torch.Tensor:
         return self.loc.expand(*sample_shape, *self.loc.shape)
@@ -78,8 +79,10 @@ PRIOR_INDICES = {"position": (0,), "velocity": (1, 2)}
 def _modules():
     actor = ProbabilisticActor(
         TensorDictModule(_Affine(A, A0), in_keys=["observation"], out_keys=["loc"]),
-        in_keys=["loc"], distribution_class=_Dirac, return_log_prob=True,
-    )  # fmt: skip
+        in_keys=["loc"],
+        distribution_class=_Dirac,
+        return_log_prob=True,
+    )
     critic = ValueOperator(_Affine(W, B), in_keys=["observation", "action"])
     return actor, critic
 
@@ -146,8 +149,16 @@ def _expected(data, spec, *, mode, gamma, lam, beta, target_entropy):
 
 def _loss(spec, mode, **kwargs):
     actor, critic = _modules()
-    loss = LyapunovActorCriticLoss(actor, critic, spec=spec, mode=mode, lambda_init=0.7,
-                                   lambda_max=1.0, beta_init=0.3, **kwargs)  # fmt: skip
+    loss = LyapunovActorCriticLoss(
+        actor,
+        critic,
+        spec=spec,
+        mode=mode,
+        lambda_init=0.7,
+        lambda_max=1.0,
+        beta_init=0.3,
+        **kwargs,
+    )
     with torch.no_grad():
         loss.target_lyapunov_network_params["module", "weight"].copy_(W_TARGET)
         loss.target_lyapunov_network_params["module", "bias"].copy_(B_TARGET)
@@ -156,21 +167,26 @@ def _loss(spec, mode, **kwargs):
 
 def _check(out, expected):
     for key, value in expected.items():
-        torch.testing.assert_close(out[key], value.to(out[key].dtype), rtol=1e-5, atol=1e-6,
-                                   msg=lambda m, key=key: f"{key}: {m}")  # fmt: skip
+        torch.testing.assert_close(
+            out[key],
+            value.to(out[key].dtype),
+            rtol=1e-5,
+            atol=1e-6,
+            msg=lambda m, key=key: f"{key}: {m}",
+        )
 
 
 @pytest.mark.parametrize("mode", ["lac", "paper"])
 @pytest.mark.parametrize("form", ["softplus", "squared", "log"])
 @pytest.mark.parametrize("prior", [None, "position", "velocity"])
 def test_every_term_equals_the_hand_calculation(mode, form, prior):
-    spec = LyapunovSpec(form=form, prior=prior, alpha=0.3, prior_weight=0.7,
-                        prior_indices=PRIOR_INDICES)  # fmt: skip
+    spec = LyapunovSpec(
+        form=form, prior=prior, alpha=0.3, prior_weight=0.7, prior_indices=PRIOR_INDICES
+    )
     loss = _loss(spec, mode, target_entropy=-1.5)
     loss.make_value_estimator(gamma=0.9)
     data = _data()
-    expected = _expected(data, spec, mode=mode, gamma=0.9, lam=0.7, beta=0.3,
-                         target_entropy=-1.5)  # fmt: skip
+    expected = _expected(data, spec, mode=mode, gamma=0.9, lam=0.7, beta=0.3, target_entropy=-1.5)
     _check(loss(data), expected)
 
 
@@ -182,12 +198,12 @@ def test_the_huber_critic_loss_is_half_the_square_near_zero_and_linear_beyond():
     loss.make_value_estimator(gamma=0.9)
     data = _data()
     data["next", "cost"][0] = 40.0  # one large target (as a termination's cost)
-    expected = _expected(data, spec, mode="lac", gamma=0.9, lam=0.7, beta=0.3,
-                         target_entropy=-1.5)  # fmt: skip
+    expected = _expected(data, spec, mode="lac", gamma=0.9, lam=0.7, beta=0.3, target_entropy=-1.5)
     obs, action, nobs = data["observation"], data["action"], data["next", "observation"]
     policy = lambda o: o @ A.T + A0  # noqa: E731
     target = data["next", "cost"] + 0.9 * (1 - data["next", "terminated"].float()) * _hand_l(
-        nobs, policy(nobs), spec, W_TARGET, B_TARGET)  # fmt: skip
+        nobs, policy(nobs), spec, W_TARGET, B_TARGET
+    )
     e = (_hand_l(obs, action, spec) - target).abs()
     assert (e >= 1).any() and (e < 1).any()
     expected["loss_lyapunov"] = torch.where(e < 1, 0.5 * e**2, e - 0.5).mean()
@@ -207,8 +223,9 @@ def test_the_huber_critic_loss_is_half_the_square_near_zero_and_linear_beyond():
 def test_the_target_entropy_in_the_temperature_loss(kwargs, target_entropy):
     spec = LyapunovSpec(form="squared", alpha=0.1)
     out = _loss(spec, "lac", **kwargs)(_data())
-    expected = _expected(_data(), spec, mode="lac", gamma=0.99, lam=0.7, beta=0.3,
-                         target_entropy=target_entropy)  # fmt: skip
+    expected = _expected(
+        _data(), spec, mode="lac", gamma=0.99, lam=0.7, beta=0.3, target_entropy=target_entropy
+    )
     _check(out, {"loss_beta": expected["loss_beta"]})
 
 
@@ -218,8 +235,9 @@ def test_the_default_discount_is_0_99_and_lambda_is_clamped_to_lambda_max():
     with torch.no_grad():
         loss.log_lambda.fill_(torch.tensor(5.0).log())  # exp = 5 > lambda_max = 1
     out = loss(_data())
-    expected = _expected(_data(), spec, mode="lac", gamma=0.99, lam=1.0, beta=0.3,
-                         target_entropy=-float(ACT))  # fmt: skip
+    expected = _expected(
+        _data(), spec, mode="lac", gamma=0.99, lam=1.0, beta=0.3, target_entropy=-float(ACT)
+    )
     # log_lambda itself is put back at log(lambda_max) = 0 before the dual term (no windup)
     expected["loss_lambda"] = -torch.tensor(1.0).log() * expected["delta_l"]
     _check(out, expected)
@@ -252,9 +270,15 @@ def _two_critic_loss(spec):
     actor, critic = _modules()
     q = ValueOperator(_Affine(WQ, BQ), in_keys=["observation", "action"], out_keys=["task_q"])
     loss = LyapunovActorCriticLoss(
-        actor, critic, spec=spec, lambda_init=0.7, lambda_max=1.0, beta_init=0.3,
-        target_entropy=-1.5, qvalue_network=q,
-    )  # fmt: skip
+        actor,
+        critic,
+        spec=spec,
+        lambda_init=0.7,
+        lambda_max=1.0,
+        beta_init=0.3,
+        target_entropy=-1.5,
+        qvalue_network=q,
+    )
     loss.set_keys(cost="stability_cost", task_cost="cost", qvalue="task_q")
     with torch.no_grad():
         loss.target_lyapunov_network_params["module", "weight"].copy_(W_TARGET)
@@ -292,16 +316,19 @@ def test_the_task_critic_learns_the_task_cost_and_the_actor_minimises_it():
     }
     out = loss(data)
     for key, val in expected.items():
-        torch.testing.assert_close(out[key], val, rtol=1e-5, atol=1e-6,
-                                   msg=lambda m, key=key: f"{key}: {m}")  # fmt: skip
+        torch.testing.assert_close(
+            out[key], val, rtol=1e-5, atol=1e-6, msg=lambda m, key=key: f"{key}: {m}"
+        )
     assert set(expected) <= set(loss.out_keys)
 
     # gradients: the Q loss reaches only the Q critic, the actor loss only the actor
     loss.zero_grad()
     out["loss_qvalue"].backward(retain_graph=True)
     assert loss.qvalue_network_params["module", "weight"].grad.abs().sum() > 0
-    assert all(p.grad is None or p.grad.abs().sum() == 0
-               for p in loss.actor_network_params.values(True, True))  # fmt: skip
+    assert all(
+        p.grad is None or p.grad.abs().sum() == 0
+        for p in loss.actor_network_params.values(True, True)
+    )
     loss.zero_grad()
     out["loss_actor"].backward()
     assert loss.actor_network_params["module", "0", "module", "weight"].grad.abs().sum() > 0
@@ -356,8 +383,9 @@ def test_the_decrease_condition_fails_for_a_stationary_cost_and_holds_for_a_vani
     gamma = 0.97
     actor = ProbabilisticActor(
         TensorDictModule(nn.Linear(1, 1), in_keys=["observation"], out_keys=["loc"]),
-        in_keys=["loc"], distribution_class=_Dirac,
-    )  # fmt: skip
+        in_keys=["loc"],
+        distribution_class=_Dirac,
+    )
     critic = ValueOperator(_CostToGo(), in_keys=["observation", "action"])
     loss = LyapunovActorCriticLoss(actor, critic, spec=LyapunovSpec(form="squared", alpha=alpha))
     loss.make_value_estimator(gamma=gamma)

@@ -26,31 +26,41 @@ def _bandit_batch(n, generator):
     obs = torch.randn(n, OBS, generator=generator)
     action = torch.rand(n, 1, generator=generator) * 2 - 1
     reward = -(action - _best_action(obs)).square()
-    next_ = {"observation": torch.randn(n, OBS, generator=generator), "reward": reward,
-             "done": torch.ones(n, 1, dtype=torch.bool),
-             "terminated": torch.ones(n, 1, dtype=torch.bool)}  # fmt: skip
+    next_ = {
+        "observation": torch.randn(n, OBS, generator=generator),
+        "reward": reward,
+        "done": torch.ones(n, 1, dtype=torch.bool),
+        "terminated": torch.ones(n, 1, dtype=torch.bool),
+    }
     return TensorDict({"observation": obs, "action": action, "next": next_}, [n])
 
 
 def _q():
-    return ValueOperator(MLP(in_features=OBS + 1, out_features=1, num_cells=[64, 64]),
-                         in_keys=["observation", "action"])  # fmt: skip
+    return ValueOperator(
+        MLP(in_features=OBS + 1, out_features=1, num_cells=[64, 64]),
+        in_keys=["observation", "action"],
+    )
 
 
 def _stochastic_actor():
-    net = nn.Sequential(MLP(in_features=OBS, out_features=2, num_cells=[16]),
-                        NormalParamExtractor())  # fmt: skip
+    net = nn.Sequential(
+        MLP(in_features=OBS, out_features=2, num_cells=[16]), NormalParamExtractor()
+    )
     return ProbabilisticActor(
         TensorDictModule(net, in_keys=["observation"], out_keys=["loc", "scale"]),
-        in_keys=["loc", "scale"], distribution_class=TanhNormal,
-        distribution_kwargs={"low": -1.0, "high": 1.0}, return_log_prob=True,
-    )  # fmt: skip
+        in_keys=["loc", "scale"],
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": -1.0, "high": 1.0},
+        return_log_prob=True,
+    )
 
 
 def _deterministic_actor():
-    return TensorDictModule(nn.Sequential(MLP(in_features=OBS, out_features=1, num_cells=[16]),
-                                          nn.Tanh()),
-                            in_keys=["observation"], out_keys=["action"])  # fmt: skip
+    return TensorDictModule(
+        nn.Sequential(MLP(in_features=OBS, out_features=1, num_cells=[16]), nn.Tanh()),
+        in_keys=["observation"],
+        out_keys=["action"],
+    )
 
 
 def _train(loss, steps=400):

@@ -18,14 +18,16 @@ NESTED_ACTION = ("agents", "action")
 
 def _nested_critic():
     torch.manual_seed(0)
-    return ValueOperator(MLP(in_features=5, out_features=1, num_cells=[8]),
-                         in_keys=["observation", NESTED_ACTION])  # fmt: skip
+    return ValueOperator(
+        MLP(in_features=5, out_features=1, num_cells=[8]), in_keys=["observation", NESTED_ACTION]
+    )
 
 
 def _data():
     candidates = torch.rand(2, 5, 8, 2)
-    return TensorDict({"observation": torch.zeros(2, 3), ("proposer", "candidates"): candidates},
-                      batch_size=[2])  # fmt: skip
+    return TensorDict(
+        {"observation": torch.zeros(2, 3), ("proposer", "candidates"): candidates}, batch_size=[2]
+    )
 
 
 def test_value_operator_over_a_nested_action_writes_state_value():
@@ -34,8 +36,12 @@ def test_value_operator_over_a_nested_action_writes_state_value():
 
 @pytest.mark.parametrize("mode", ["q", "lyapunov"])
 def test_missing_critic_output_names_the_key_and_what_the_critic_wrote(mode):
-    selector = CandidateSelector(_nested_critic(), mode=mode, spec=LyapunovSpec(form="squared"),
-                                 critic_action_key=NESTED_ACTION)  # fmt: skip
+    selector = CandidateSelector(
+        _nested_critic(),
+        mode=mode,
+        spec=LyapunovSpec(form="squared"),
+        critic_action_key=NESTED_ACTION,
+    )
     with pytest.raises(KeyError) as info:
         selector(_data())
     message = str(info.value)
@@ -44,7 +50,8 @@ def test_missing_critic_output_names_the_key_and_what_the_critic_wrote(mode):
 
 
 def test_the_right_critic_out_key_selects():
-    selector = CandidateSelector(_nested_critic(), critic_action_key=NESTED_ACTION,
-                                 critic_out_key="state_value")  # fmt: skip
+    selector = CandidateSelector(
+        _nested_critic(), critic_action_key=NESTED_ACTION, critic_out_key="state_value"
+    )
     td = selector(_data())
     assert td["action"].shape == (2, 2) and td["selector", "ranking"].shape == (2, 5)

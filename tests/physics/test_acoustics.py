@@ -51,9 +51,15 @@ def test_rate_matches_scalar_formulas(model):
 
 @pytest.mark.parametrize(
     ("f", "shipping", "wind"),
-    [(20.0, 0.0, 0.0), (20.0, 1.0, 0.0), (20.0, 0.5, 10.0), (20.0, 0.9, 25.0),
-     (0.05, 1.0, 0.0), (1.0, 0.2, 5.0)],
-)  # fmt: skip
+    [
+        (20.0, 0.0, 0.0),
+        (20.0, 1.0, 0.0),
+        (20.0, 0.5, 10.0),
+        (20.0, 0.9, 25.0),
+        (0.05, 1.0, 0.0),
+        (1.0, 0.2, 5.0),
+    ],
+)
 def test_noise_level_with_shipping_and_wind_matches_the_spec_formula(f, shipping, wind):
     got = noise_level_db(f, 1000.0, shipping, wind)
     assert got == pytest.approx(_reference_noise_level(f, 1000.0, shipping, wind), abs=1e-9)

@@ -26,16 +26,19 @@ def test_rotation_is_rz_ry_rx_and_rate_map_inverts_the_euler_rates():
     matrices = euler_matrices(trig_factors(angles.cos(), angles.sin()))
     for k in range(angles.shape[0]):
         phi, theta, psi = angles[k].tolist()
-        torch.testing.assert_close(matrices[k, 0], _rz_ry_rx(phi, theta, psi), rtol=0,
-                                   atol=1e-14)  # fmt: skip
+        torch.testing.assert_close(matrices[k, 0], _rz_ry_rx(phi, theta, psi), rtol=0, atol=1e-14)
         # T maps body rates to Euler rates: its inverse takes Euler rates to body rates
         inverse = torch.tensor(
-            [[1, 0, -math.sin(theta)],
-             [0, math.cos(phi), math.cos(theta) * math.sin(phi)],
-             [0, -math.sin(phi), math.cos(theta) * math.cos(phi)]], dtype=F64,
-        )  # fmt: skip
-        torch.testing.assert_close(matrices[k, 1] @ inverse, torch.eye(3, dtype=F64), rtol=0,
-                                   atol=1e-12)  # fmt: skip
+            [
+                [1, 0, -math.sin(theta)],
+                [0, math.cos(phi), math.cos(theta) * math.sin(phi)],
+                [0, -math.sin(phi), math.cos(theta) * math.cos(phi)],
+            ],
+            dtype=F64,
+        )
+        torch.testing.assert_close(
+            matrices[k, 1] @ inverse, torch.eye(3, dtype=F64), rtol=0, atol=1e-12
+        )
     torch.testing.assert_close(rotation_matrix(angles), matrices[:, 0], rtol=0, atol=0)
 
 

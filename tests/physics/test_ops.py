@@ -5,8 +5,14 @@ import torch
 
 from torchrl_auv.physics._ops import small_matmul
 
-SHAPES = [((5,), (5, 3)), ((4, 5), (5, 3)), ((2, 4, 5), (5, 3)), ((2, 4, 5), (2, 5, 3)),
-          ((2, 3, 4, 5), (3, 5, 1)), ((6, 6), (2, 6, 6))]  # fmt: skip
+SHAPES = [
+    ((5,), (5, 3)),
+    ((4, 5), (5, 3)),
+    ((2, 4, 5), (5, 3)),
+    ((2, 4, 5), (2, 5, 3)),
+    ((2, 3, 4, 5), (3, 5, 1)),
+    ((6, 6), (2, 6, 6)),
+]
 
 
 @pytest.mark.parametrize(("a_shape", "b_shape"), SHAPES)

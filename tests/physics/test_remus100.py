@@ -127,8 +127,9 @@ def test_zero_vertical_current_keeps_the_sign_of_zero_of_w():
         two, three = step(*single, cur[i], DT), step(*single, padded[i], DT)
         for a, b in zip(two, three, strict=True):
             assert torch.equal(a, b), i
-    for a, b in zip(step(eta, nu, act, cmd, cur, DT), step(eta, nu, act, cmd, padded, DT),
-                    strict=True):  # fmt: skip
+    for a, b in zip(
+        step(eta, nu, act, cmd, cur, DT), step(eta, nu, act, cmd, padded, DT), strict=True
+    ):
         torch.testing.assert_close(a, b, rtol=1e-15, atol=1e-15)
         assert torch.equal(a[:128], b[:128])  # w = +-0: the sign of zero is kept
 

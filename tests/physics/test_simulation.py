@@ -33,8 +33,9 @@ def test_step_in_ocean_uses_current_at_the_vehicle():
 
 def test_step_in_ocean_takes_the_local_water_depth():
     eta, nu, act, cmd, _ = _state(3)
-    sea = ocean.reset_ocean("ves", (3,), generator=torch.Generator().manual_seed(0),
-                            water_depth=45.0)  # fmt: skip
+    sea = ocean.reset_ocean(
+        "ves", (3,), generator=torch.Generator().manual_seed(0), water_depth=45.0
+    )
     local = torch.tensor([40.0, 45.0, 58.0])
     out = step_in_ocean(eta, nu, act, cmd, sea, 0.05, water_depth=local)
     current = ocean.current_at(sea, eta[:, :3], water_depth=local)

@@ -122,8 +122,9 @@ def _one_wave(h: float | None, *, phase: float, time: float, seed: int = 0):
     )
     state["wave_phase"] = torch.full((1,), phase, dtype=F64)
     state["time"] = torch.tensor(time, dtype=F64)
-    a, w, theta = (state[k][0].item() for k in ("wave_amplitude", "wave_frequency",
-                                                "wave_direction"))  # fmt: skip
+    a, w, theta = (
+        state[k][0].item() for k in ("wave_amplitude", "wave_frequency", "wave_direction")
+    )
     return state, a, w, theta
 
 

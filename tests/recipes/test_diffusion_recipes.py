@@ -30,13 +30,21 @@ RL_TINY = ["optim.updates_per_batch=2"]
 def _run(recipe: str, run_dir: Path, *overrides: str) -> subprocess.CompletedProcess:
     """The recipe with the tiny overrides; the first-stage cache next to ``run_dir`` unless
     an override says otherwise."""
-    cache = [] if any(o.startswith("proposer.cache_dir=") for o in overrides) else [
-        f"proposer.cache_dir={run_dir.parent / 'first_stage'}"]  # fmt: skip
-    command = [sys.executable, f"recipes/{recipe}/train.py", *TINY, f"run_dir={run_dir}",
-               *cache, *overrides]  # fmt: skip
+    cache = (
+        []
+        if any(o.startswith("proposer.cache_dir=") for o in overrides)
+        else [f"proposer.cache_dir={run_dir.parent / 'first_stage'}"]
+    )
+    command = [
+        sys.executable,
+        f"recipes/{recipe}/train.py",
+        *TINY,
+        f"run_dir={run_dir}",
+        *cache,
+        *overrides,
+    ]
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
-    return subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True,
-                          timeout=300)  # fmt: skip
+    return subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
 
 
 def _eval_rows(run_dir: Path) -> list[dict]:
@@ -98,8 +106,14 @@ def test_every_recipe_with_the_same_values_reuses_one_first_stage(tmp_path):
     first = _run("diffusion", tmp_path / "first", f"proposer.cache_dir={cache}")
     assert first.returncode == 0, first.stderr[-3000:]
     (stage,) = cache.glob("ideal-*")
-    second = _run("diffusion_rl", tmp_path / "second", f"proposer.cache_dir={cache}",
-                  "proposer.num_candidates=3", "residual.bound=0.2", *RL_TINY)  # fmt: skip
+    second = _run(
+        "diffusion_rl",
+        tmp_path / "second",
+        f"proposer.cache_dir={cache}",
+        "proposer.num_candidates=3",
+        "residual.bound=0.2",
+        *RL_TINY,
+    )
     assert second.returncode == 0, second.stderr[-3000:]
     summary = (tmp_path / "second" / "summary.md").read_text()
     assert f"first stage: {stage} (reused" in summary
@@ -111,8 +125,12 @@ def test_every_recipe_with_the_same_values_reuses_one_first_stage(tmp_path):
     other = _run("diffusion", tmp_path / "third", f"proposer.cache_dir={cache}", "seed=1")
     assert other.returncode == 0, other.stderr[-3000:]
     assert len(list(cache.glob("ideal-*"))) == 2
-    given = _run("diffusion", tmp_path / "fourth", f"proposer.path={stage / 'proposer.pt'}",
-                 f"proposer.cache_dir={tmp_path / 'unused'}")  # fmt: skip
+    given = _run(
+        "diffusion",
+        tmp_path / "fourth",
+        f"proposer.path={stage / 'proposer.pt'}",
+        f"proposer.cache_dir={tmp_path / 'unused'}",
+    )
     assert given.returncode == 0, given.stderr[-3000:]
     assert not (tmp_path / "unused").exists()  # nothing built
     result = _run("diffusion", tmp_path / "fifth", f"proposer.path={tmp_path}/none.pt")
@@ -125,11 +143,15 @@ def test_diffusion_lac_quick_end_to_end_beats_random_actions(tmp_path):
     framework must beat random actions clearly on cost and SSN (its proposer starts from the
     expert); whether it beats the expert is reported, not required."""
     run_dir = tmp_path / "run"
-    command = [sys.executable, "recipes/diffusion_lac/train.py", "--config-name=quick",
-               f"run_dir={run_dir}", "logger.backend=wandb"]  # fmt: skip
+    command = [
+        sys.executable,
+        "recipes/diffusion_lac/train.py",
+        "--config-name=quick",
+        f"run_dir={run_dir}",
+        "logger.backend=wandb",
+    ]
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
-    result = subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True,
-                            timeout=900)  # fmt: skip
+    result = subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stderr[-3000:]
     rows = {row["policy"]: row for row in _eval_rows(run_dir)}
     ours, random = rows["diffusion_lac"], rows["random"]

@@ -29,15 +29,29 @@ STEPS = 300  # decisions per evaluation episode
 
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_reduced_first_stage_imitates_the_expert_in_ideal(tmp_path):
-    cfg = OmegaConf.create({
-        "seed": 0,
-        "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
-        "proposer": {"cache_dir": str(tmp_path), "path": None, "demo_sea_state": "ideal",
-                     "demo_batches": 1, "demo_episodes": 16, "demo_steps": 300,
-                     "demo_workers": 1, "hidden": 128, "cond_dim": 128, "pretrain_steps": 2000,
-                     "dagger_batches": 1, "dagger_steps": 500, "num_candidates": 5,
-                     "num_inference_steps": 10, "sampler": "ddim"},
-    })  # fmt: skip
+    cfg = OmegaConf.create(
+        {
+            "seed": 0,
+            "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
+            "proposer": {
+                "cache_dir": str(tmp_path),
+                "path": None,
+                "demo_sea_state": "ideal",
+                "demo_batches": 1,
+                "demo_episodes": 16,
+                "demo_steps": 300,
+                "demo_workers": 1,
+                "hidden": 128,
+                "cond_dim": 128,
+                "pretrain_steps": 2000,
+                "dagger_batches": 1,
+                "dagger_steps": 500,
+                "num_candidates": 5,
+                "num_inference_steps": 10,
+                "sampler": "ddim",
+            },
+        }
+    )
     torch.manual_seed(0)
     proposer = first_stage_from_config(cfg).proposer
 

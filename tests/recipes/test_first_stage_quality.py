@@ -16,12 +16,20 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _diffusion(run_dir: Path, cache: Path, *overrides: str, timeout: int):
-    command = [sys.executable, "recipes/diffusion/train.py", "env.sea_state=ves",
-               f"run_dir={run_dir}", f"proposer.cache_dir={cache}", "logger.backend=",
-               "env.compile_physics=false", *overrides]  # fmt: skip
+    command = [
+        sys.executable,
+        "recipes/diffusion/train.py",
+        "env.sea_state=ves",
+        f"run_dir={run_dir}",
+        f"proposer.cache_dir={cache}",
+        "logger.backend=",
+        "env.compile_physics=false",
+        *overrides,
+    ]
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
-    return subprocess.run(command, cwd=REPO, env=env, capture_output=True, text=True,
-                          timeout=timeout)  # fmt: skip
+    return subprocess.run(
+        command, cwd=REPO, env=env, capture_output=True, text=True, timeout=timeout
+    )
 
 
 @pytest.mark.slow
@@ -47,8 +55,14 @@ def test_the_paper_preset_proposer_alone_imitates_the_expert_in_ves(tmp_path):
     # reuse takes is measured by benchmarks/bench_first_stage.py, not asserted here)
     (folder,) = cache.glob("ves-*")
     weights = (folder / "proposer.pt").stat().st_mtime_ns
-    again = _diffusion(tmp_path / "again", cache, "collector.total_frames=100", "eval.steps=10",
-                       "proposer.num_inference_steps=5", timeout=900)  # fmt: skip
+    again = _diffusion(
+        tmp_path / "again",
+        cache,
+        "collector.total_frames=100",
+        "eval.steps=10",
+        "proposer.num_inference_steps=5",
+        timeout=900,
+    )
     assert again.returncode == 0, again.stderr[-3000:]
     summary = (tmp_path / "again" / "summary.md").read_text()
     assert re.search(r"first stage: .* \(reused in \d+ s\)", summary), summary

@@ -37,8 +37,12 @@ def test_main_job_writes_table_plots_and_offline_wandb_run(tmp_path):
     assert {(r["sea_state"], r["controller"]) for r in rows} == {
         (s, c) for s in ("ideal", "ves") for c in ("s_surface", "pid", "smc")
     }
-    value = {(r["sea_state"], r["controller"], k): float(v) for r in rows for k, v in r.items()
-             if k not in ("sea_state", "controller")}  # fmt: skip
+    value = {
+        (r["sea_state"], r["controller"], k): float(v)
+        for r in rows
+        for k, v in r.items()
+        if k not in ("sea_state", "controller")
+    }
     for c in ("s_surface", "pid", "smc"):
         for s in ("ideal", "ves"):  # the filter beats the raw USBL fixes it fuses
             assert value[s, c, "kf_rms"] < value[s, c, "usbl_rms"], (s, c)

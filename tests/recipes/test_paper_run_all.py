@@ -89,8 +89,11 @@ def test_a_job_waits_for_its_first_stage_while_the_other_core_goes_on(tmp_path, 
     """The LAC job is next in order but its first stage is building: the second core takes
     the SAC job instead, and the LAC job starts only once its builder has ended."""
     run_all = _load_run_all()
-    builder, user, sac = (Job("diffusion", "ves", "pid", 0), Job("diffusion_lac", "ves", "pid", 0),
-                          Job("sac", "ves", "pid", 0))  # fmt: skip
+    builder, user, sac = (
+        Job("diffusion", "ves", "pid", 0),
+        Job("diffusion_lac", "ves", "pid", 0),
+        Job("sac", "ves", "pid", 0),
+    )
     events, sac_started = [], threading.Event()
 
     def fake_run_job(job, cfg, root):
@@ -170,24 +173,34 @@ def test_a_store_carries_finished_jobs_to_another_machine(tmp_path, monkeypatch)
         (stage / name).write_text(text)
     partial = first / "first_stage" / ".ideal-s_surface-shannon-seed1-abc.partial-7"
     unfinished = first / "first_stage" / "es-s_surface-shannon-seed0-x"  # no values.json
-    for folder, names in ((partial, ("pretrain_loss.csv", "values.json")),
-                          (unfinished, ("pretrain_loss.csv",))):  # fmt: skip
+    for folder, names in (
+        (partial, ("pretrain_loss.csv", "values.json")),
+        (unfinished, ("pretrain_loss.csv",)),
+    ):
         folder.mkdir()
         for name in names:
             (folder / name).write_text("{}")
     assert run_all.run_jobs([done, failing], cfg, first, store) == [failing.name]
     run_all.sync_store(first, store, [done, failing])  # the next sitting on this machine
     stored = sorted(p.relative_to(store).as_posix() for p in store.rglob("*") if p.is_file())
-    assert stored == [f"first_stage/{stage.name}/{name}"
-                      for name in ("metrics.json", "pretrain_loss.csv", "values.json")] + [
-        f"jobs/{done.name}/eval.csv", f"jobs/{done.name}/train_curve.csv",
-        "sittings.json"]  # fmt: skip
+    assert stored == [
+        f"first_stage/{stage.name}/{name}"
+        for name in ("metrics.json", "pretrain_loss.csv", "values.json")
+    ] + [f"jobs/{done.name}/eval.csv", f"jobs/{done.name}/train_curve.csv", "sittings.json"]
     # the sitting is recorded: the one job it finished (the failed one does not count)
     (sitting,) = read_sittings(store)
     assert sitting["jobs_finished"] == 1 and sitting["end"] >= sitting["start"]
-    command = [sys.executable, str(RECIPES / "paper" / "run_all.py"), "budget=quick",
-               "seeds=[0]", "experiments=[fig7]", "jobs=false", "report=false",
-               f"run_root={second}", f"store={store}"]  # fmt: skip
+    command = [
+        sys.executable,
+        str(RECIPES / "paper" / "run_all.py"),
+        "budget=quick",
+        "seeds=[0]",
+        "experiments=[fig7]",
+        "jobs=false",
+        "report=false",
+        f"run_root={second}",
+        f"store={store}",
+    ]
     subprocess.run(command, check=True, cwd=tmp_path, timeout=120)
     assert run_all.job_state(second / "jobs" / done.name) == "done"
     assert run_all.job_state(second / "jobs" / later.name) == "new"
@@ -211,12 +224,24 @@ def test_a_reduced_grid_runs_end_to_end(tmp_path):
     """The quick budget, one seed, Fig. 5/6 and Fig. 8/9 (the proposer alone and the full
     framework in VES): the figures and tables, their numbers the job's."""
     env = {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline"}
-    command = [sys.executable, str(RECIPES / "paper" / "run_all.py"), "budget=quick",
-               "seeds=[0]", "experiments=[fig5_6,fig8_9]", f"run_root={tmp_path}"]  # fmt: skip
+    command = [
+        sys.executable,
+        str(RECIPES / "paper" / "run_all.py"),
+        "budget=quick",
+        "seeds=[0]",
+        "experiments=[fig5_6,fig8_9]",
+        f"run_root={tmp_path}",
+    ]
     subprocess.run(command, check=True, env=env, cwd=tmp_path, timeout=1200)
     report = tmp_path / "report"
-    for name in ("fig5_6/fig5.png", "fig5_6/fig6.png", "fig8_9/fig8_9.png", "fig8_9/fig8_9.md",
-                 "fig8_9/fig8_9.csv", "run.json"):  # fmt: skip
+    for name in (
+        "fig5_6/fig5.png",
+        "fig5_6/fig6.png",
+        "fig8_9/fig8_9.png",
+        "fig8_9/fig8_9.md",
+        "fig8_9/fig8_9.csv",
+        "run.json",
+    ):
         assert (report / name).stat().st_size > 0, name
     rows = json.loads((report / "fig8_9" / "fig8_9.json").read_text())["rows"]
     with open(tmp_path / "jobs/diffusion_lac/ves/s_surface/seed0/eval.csv", newline="") as f:
@@ -227,6 +252,7 @@ def test_a_reduced_grid_runs_end_to_end(tmp_path):
         assert row["runs"] == 1
         assert row["ssn"] == pytest.approx(float(own[policy]["ssn"]))
     # a second run finds every job finished and only writes the report again
-    out = subprocess.run(command, check=True, env=env, cwd=tmp_path, capture_output=True,
-                         text=True, timeout=600)  # fmt: skip
+    out = subprocess.run(
+        command, check=True, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600
+    )
     assert (out.stdout + out.stderr).count("skipped (finished)") == 2

@@ -31,8 +31,9 @@ def _env() -> dict:
 
 
 def _run(command: list[str], timeout: float = 300) -> subprocess.CompletedProcess:
-    return subprocess.run(command, cwd=REPO, env=_env(), capture_output=True, text=True,
-                          timeout=timeout)  # fmt: skip
+    return subprocess.run(
+        command, cwd=REPO, env=_env(), capture_output=True, text=True, timeout=timeout
+    )
 
 
 def _checkpoint_steps(run_dir: Path) -> list[int]:
@@ -48,8 +49,11 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
     with open(run_dir / "eval.csv") as handle:
         rows = list(csv.DictReader(handle))
     assert [(r["sea_state"], r["policy"]) for r in rows] == [
-        ("ideal", "sac"), ("ideal", "expert"), ("ideal", "idle"), ("ideal", "random")
-    ]  # fmt: skip
+        ("ideal", "sac"),
+        ("ideal", "expert"),
+        ("ideal", "idle"),
+        ("ideal", "random"),
+    ]
     for row in rows:  # 20 decisions per scene: the metrics are finite numbers
         assert float(row["decisions"]) == 20.0 and float(row["cost_mean"]) >= 0.0
     summary = (run_dir / "summary.md").read_text()
@@ -59,17 +63,27 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
     # config and the train/eval metrics by name
     (record_file,) = (run_dir / "wandb").glob("offline-run-*/run-*.wandb")
     records = record_file.read_bytes()
-    for name in (b"sea_state", b"updates_per_batch", b"train/cost_mean", b"time/frames_per_s",
-                 b"eval/ideal/sac/ssn", b"eval/ideal/expert/ssn"):  # fmt: skip
+    for name in (
+        b"sea_state",
+        b"updates_per_batch",
+        b"train/cost_mean",
+        b"time/frames_per_s",
+        b"eval/ideal/sac/ssn",
+        b"eval/ideal/expert/ssn",
+    ):
         assert name in records, name
 
 
 @pytest.mark.parametrize(
     ("override", "named"),
-    [("env.sea_state=calm", "env.sea_state"), ("env.controller=lqr", "env.controller"),
-     ("env.rate_model=fast", "env.rate_model"), ("collector.backend=slurm", "collector.backend"),
-     ("collector.total_frames=0", "collector.total_frames")],
-)  # fmt: skip
+    [
+        ("env.sea_state=calm", "env.sea_state"),
+        ("env.controller=lqr", "env.controller"),
+        ("env.rate_model=fast", "env.rate_model"),
+        ("collector.backend=slurm", "collector.backend"),
+        ("collector.total_frames=0", "collector.total_frames"),
+    ],
+)
 def test_an_unknown_value_fails_before_any_work_naming_it(tmp_path, override, named):
     result = _run(_command(tmp_path / "run", override, "logger.backend="), timeout=120)
     assert result.returncode != 0 and named in result.stderr
@@ -79,10 +93,12 @@ def test_an_unknown_value_fails_before_any_work_naming_it(tmp_path, override, na
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_run_killed_with_sigkill_resumes_from_its_latest_checkpoint(tmp_path):
     run_dir = tmp_path / "run"
-    command = _command(run_dir, "collector.total_frames=1000", "checkpoint.every_frames=200",
-                       "logger.backend=")  # fmt: skip
-    process = subprocess.Popen(command, cwd=REPO, env=_env(), stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL)  # fmt: skip
+    command = _command(
+        run_dir, "collector.total_frames=1000", "checkpoint.every_frames=200", "logger.backend="
+    )
+    process = subprocess.Popen(
+        command, cwd=REPO, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and not any(
         s >= 400 for s in _checkpoint_steps(run_dir) if (run_dir / "checkpoints").exists()
@@ -95,9 +111,16 @@ def test_a_run_killed_with_sigkill_resumes_from_its_latest_checkpoint(tmp_path):
 
     # resume names the run; run_dir keeps its default (a new stamped folder under run_root),
     # which must not be made
-    resume = [sys.executable, "recipes/sac/train.py", *TINY, "collector.total_frames=1000",
-              "checkpoint.every_frames=200", "logger.backend=", f"resume={run_dir}",
-              f"run_root={tmp_path / 'root'}"]  # fmt: skip
+    resume = [
+        sys.executable,
+        "recipes/sac/train.py",
+        *TINY,
+        "collector.total_frames=1000",
+        "checkpoint.every_frames=200",
+        "logger.backend=",
+        f"resume={run_dir}",
+        f"run_root={tmp_path / 'root'}",
+    ]
     result = _run(resume)
     assert result.returncode == 0, result.stderr[-3000:]
     assert not (tmp_path / "root").exists()

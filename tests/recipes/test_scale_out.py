@@ -12,9 +12,16 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-TINY = ["framework=sac", "preset=quick", "collector.total_frames=200",
-        "collector.frames_per_batch=100", "collector.init_random_frames=100",
-        "optim.updates_per_batch=4", "eval.steps=20", "logger.backend="]  # fmt: skip
+TINY = [
+    "framework=sac",
+    "preset=quick",
+    "collector.total_frames=200",
+    "collector.frames_per_batch=100",
+    "collector.init_random_frames=100",
+    "optim.updates_per_batch=4",
+    "eval.steps=20",
+    "logger.backend=",
+]
 
 
 def _train(tmp_path: Path, *overrides: str, slow_start=None) -> Path:
@@ -22,8 +29,12 @@ def _train(tmp_path: Path, *overrides: str, slow_start=None) -> Path:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "RAY_ADDRESS": "", "HOME": str(tmp_path)}
     result = subprocess.run(
         [sys.executable, "recipes/train.py", *TINY, f"run_dir={run_dir}", *overrides],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     if result.returncode and slow_start is not None:
         slow_start(result.stderr)
     assert result.returncode == 0, result.stderr[-3000:]

@@ -24,9 +24,16 @@ RECIPES = REPO / "recipes"
 #: Table III 4 x 3, alpha 4 values, forms 3, tiny 2 frameworks, rl_stage (issue [21/26]) 3 x 3,
 #: first_stage (issue [13/18]) the
 #: proposer alone x 3 seas; each x its seeds.
-JOBS = {"tiny": 2 * 2, "fig7": 3 * 3 * 3, "table2": 2 * 3 * 2 * 3, "table3": 4 * 3 * 3,
-        "rl_stage": 3 * 3 * 5,
-        "alpha": 4 * 3, "forms": 3 * 3, "first_stage": 3 * 3}  # fmt: skip
+JOBS = {
+    "tiny": 2 * 2,
+    "fig7": 3 * 3 * 3,
+    "table2": 2 * 3 * 2 * 3,
+    "table3": 4 * 3 * 3,
+    "rl_stage": 3 * 3 * 5,
+    "alpha": 4 * 3,
+    "forms": 3 * 3,
+    "first_stage": 3 * 3,
+}
 SWEEPS = sorted(p.stem for p in (RECIPES / "sweeps").glob("*.yaml") if not p.stem.startswith("_"))
 
 
@@ -38,8 +45,10 @@ def _compose(overrides: list[str], *, hydra: bool = False):
 def _grid(params: dict) -> list[list[str]]:
     """Every job's overrides of a sweeper's ``params`` (Hydra's own parser expands them)."""
     parser = OverridesParser.create()
-    axes = [[f"{o.key_or_group}={v}" for v in o.sweep_string_iterator()]
-            for o in parser.parse_overrides([f"{k}={v}" for k, v in params.items()])]  # fmt: skip
+    axes = [
+        [f"{o.key_or_group}={v}" for v in o.sweep_string_iterator()]
+        for o in parser.parse_overrides([f"{k}={v}" for k, v in params.items()])
+    ]
     return [list(job) for job in itertools.product(*axes)]
 
 
@@ -94,8 +103,12 @@ def test_the_wandb_sweep_launches_the_hydra_sweeps_jobs(name):
         args = create_sweep_command_args(
             {"args": {k: {"value": v} for k, v in zip(params, values, strict=True)}}
         )["args_no_hyphens"]
-        macros = {"${env}": ["/usr/bin/env"], "${interpreter}": ["python"],
-                  "${program}": [spec["program"]], "${args_no_hyphens}": args}  # fmt: skip
+        macros = {
+            "${env}": ["/usr/bin/env"],
+            "${interpreter}": ["python"],
+            "${program}": [spec["program"]],
+            "${args_no_hyphens}": args,
+        }
         command = [part for item in spec["command"] for part in macros.get(item, [item])]
         assert command[:3] == ["/usr/bin/env", "python", "recipes/train.py"]
         cfg = _job([*command[3:], "run_root=/sweeps"])  # Hydra accepts every override
@@ -103,8 +116,10 @@ def test_the_wandb_sweep_launches_the_hydra_sweeps_jobs(name):
         assert cfg["logger"]["group"] == name and cfg["logger"]["offline"] is False
         folders.add(cfg["run_dir"])
     hydra_params = _compose([f"+sweeps={name}"], hydra=True).hydra.sweeper.params
-    hydra_folders = {_job([f"+sweeps={name}", "run_root=/sweeps", *job])["run_dir"]
-                     for job in _grid(dict(hydra_params))}  # fmt: skip
+    hydra_folders = {
+        _job([f"+sweeps={name}", "run_root=/sweeps", *job])["run_dir"]
+        for job in _grid(dict(hydra_params))
+    }
     assert folders == hydra_folders
 
 
@@ -116,27 +131,46 @@ def test_the_ray_cluster_launcher_connects_and_leaves_the_object_store_to_the_cl
 
 
 def _env(tmp_path: Path) -> dict:
-    return {**os.environ, "OMP_NUM_THREADS": "1", "WANDB_MODE": "offline",
-            "RAY_ADDRESS": "", "HOME": str(tmp_path / "home")}  # fmt: skip
+    return {
+        **os.environ,
+        "OMP_NUM_THREADS": "1",
+        "WANDB_MODE": "offline",
+        "RAY_ADDRESS": "",
+        "HOME": str(tmp_path / "home"),
+    }
 
 
 def _sweep(tmp_path: Path, *overrides: str, timeout: float = 900) -> subprocess.CompletedProcess:
-    command = [sys.executable, "recipes/train.py", "-m", "+sweeps=tiny",
-               f"run_root={tmp_path}", "logger.backend=", *overrides]  # fmt: skip
-    return subprocess.run(command, cwd=REPO, env=_env(tmp_path), capture_output=True, text=True,
-                          timeout=timeout)  # fmt: skip
+    command = [
+        sys.executable,
+        "recipes/train.py",
+        "-m",
+        "+sweeps=tiny",
+        f"run_root={tmp_path}",
+        "logger.backend=",
+        *overrides,
+    ]
+    return subprocess.run(
+        command, cwd=REPO, env=_env(tmp_path), capture_output=True, text=True, timeout=timeout
+    )
 
 
 @pytest.mark.parametrize(
     ("overrides", "named"),
-    [(["env.sea_state=ideal,calm"], "env.sea_state must be one of"),
-     (["env.controller=pid,lqr"], "env.controller must be one of"),
-     (["framework=sac,td3"], "Could not find 'framework/td3'"),
-     (["collector.backend=ray", "collector.ray_address=127.0.0.1:9"],
-      "collector.ray_address '127.0.0.1:9' is unreachable"),
-     (["hydra/launcher=ray", "hydra.launcher.ray.init.address=127.0.0.1:9"],
-      "hydra.launcher.ray.init.address '127.0.0.1:9' is unreachable")],
-)  # fmt: skip
+    [
+        (["env.sea_state=ideal,calm"], "env.sea_state must be one of"),
+        (["env.controller=pid,lqr"], "env.controller must be one of"),
+        (["framework=sac,td3"], "Could not find 'framework/td3'"),
+        (
+            ["collector.backend=ray", "collector.ray_address=127.0.0.1:9"],
+            "collector.ray_address '127.0.0.1:9' is unreachable",
+        ),
+        (
+            ["hydra/launcher=ray", "hydra.launcher.ray.init.address=127.0.0.1:9"],
+            "hydra.launcher.ray.init.address '127.0.0.1:9' is unreachable",
+        ),
+    ],
+)
 def test_a_bad_value_in_a_sweep_fails_before_any_job_starts(tmp_path, overrides, named):
     if "ray" in " ".join(overrides):
         pytest.importorskip("ray")
@@ -147,8 +181,13 @@ def test_a_bad_value_in_a_sweep_fails_before_any_job_starts(tmp_path, overrides,
 
 
 def _aggregate(root: Path) -> str:
-    result = subprocess.run([sys.executable, "recipes/aggregate.py", str(root)], cwd=REPO,
-                            capture_output=True, text=True, timeout=120)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, "recipes/aggregate.py", str(root)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr[-2000:]
     return result.stdout
 
@@ -163,8 +202,9 @@ def _check_tiny_sweep(tmp_path: Path, result: subprocess.CompletedProcess) -> No
     table = _aggregate(root).splitlines()
     assert table[0].startswith("| framework | sea_state | policy | runs |")
     assert [line.split(" | ")[:4] for line in table[2:]] == [
-        ["| diffusion", "ideal", "diffusion", "2"], ["| sac", "ideal", "sac", "2"]
-    ]  # fmt: skip
+        ["| diffusion", "ideal", "diffusion", "2"],
+        ["| sac", "ideal", "sac", "2"],
+    ]
 
 
 @pytest.mark.slow
@@ -175,15 +215,22 @@ def test_the_tiny_sweep_runs_four_jobs_locally_and_aggregates(tmp_path):
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget
 def test_a_sweep_runs_on_hydras_ray_launcher_and_aggregates(tmp_path):
     pytest.importorskip("hydra_plugins.hydra_ray_launcher")
-    result = _sweep(tmp_path, "framework=sac,diffusion", "seed=0", "hydra/launcher=ray",
-                    "+hydra.launcher.ray.init.num_cpus=2",
-                    "+hydra.launcher.ray.init.include_dashboard=false")  # fmt: skip
+    result = _sweep(
+        tmp_path,
+        "framework=sac,diffusion",
+        "seed=0",
+        "hydra/launcher=ray",
+        "+hydra.launcher.ray.init.num_cpus=2",
+        "+hydra.launcher.ray.init.include_dashboard=false",
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     root = tmp_path / "sweeps" / "tiny"
     assert sorted(p.parent.relative_to(root).as_posix() for p in root.rglob("eval.csv")) == [
-        "diffusion/ideal/seed0", "sac/ideal/seed0"
-    ]  # fmt: skip
+        "diffusion/ideal/seed0",
+        "sac/ideal/seed0",
+    ]
     table = _aggregate(root).splitlines()
     assert [line.split(" | ")[:4] for line in table[2:]] == [
-        ["| diffusion", "ideal", "diffusion", "1"], ["| sac", "ideal", "sac", "1"]
-    ]  # fmt: skip
+        ["| diffusion", "ideal", "diffusion", "1"],
+        ["| sac", "ideal", "sac", "1"],
+    ]

@@ -15,9 +15,18 @@ def _rollout():
     L = torch.arange(36, dtype=torch.float32).reshape(2, 3, 2, 3)
     index = torch.tensor([[[0, 2], [1, 1], [2, 0]], [[2, 2], [0, 1], [1, 0]]])
     done = torch.tensor([[False, True, False], [False, False, False]])[..., None]
-    return TensorDict({("agents", "selector", "scores"): -L,
-                       ("agents", "selector", "index"): index,
-                       ("next", "done"): done}, batch_size=[2, 3]), L, index  # fmt: skip
+    return (
+        TensorDict(
+            {
+                ("agents", "selector", "scores"): -L,
+                ("agents", "selector", "index"): index,
+                ("next", "done"): done,
+            },
+            batch_size=[2, 3],
+        ),
+        L,
+        index,
+    )
 
 
 def test_the_executed_candidates_value_until_the_first_episode_ends():
@@ -65,16 +74,24 @@ def test_the_written_trace_is_seeded_by_the_evaluation_seed_and_leaves_the_rng(t
     from torchrl_auv.modules import DiffusionProposer
     from torchrl_auv.report import write_lyapunov_trace
 
-    cfg = OmegaConf.create({"env": {"sea_state": "ideal", "controller": "pid",
-                                    "rate_model": "shannon", "history": 2},
-                            "eval": {"num_envs": 1, "steps": 4, "seed": 100_000,
-                                     "sea_states": ["ideal"]}})  # fmt: skip
+    cfg = OmegaConf.create(
+        {
+            "env": {
+                "sea_state": "ideal",
+                "controller": "pid",
+                "rate_model": "shannon",
+                "history": 2,
+            },
+            "eval": {"num_envs": 1, "steps": 4, "seed": 100_000, "sea_states": ["ideal"]},
+        }
+    )
     env = training.held_out_env(cfg, 1, 4)("ideal", 0)
     torch.manual_seed(0)
     proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
     critic = training.make_lyapunov_critic(env, (8,))
-    policy = training.make_selection_policy(proposer, critic, mode="lyapunov",
-                                             critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
+    policy = training.make_selection_policy(
+        proposer, critic, mode="lyapunov", critic_out_key=training.LYAPUNOV_RAW
+    )
     texts = []
     for state in (1, 2):
         torch.manual_seed(state)

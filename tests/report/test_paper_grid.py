@@ -44,8 +44,9 @@ def test_overrides_give_each_framework_only_its_groups(tmp_path):
     sac = Job("sac", "es", "pid", 1).overrides("quick", root=tmp_path)
     assert not any(o.startswith(("proposer.", "eval.ranks")) for o in sac)
     assert "collector.init_random_frames=100" in sac
-    lac = Job("diffusion_lac", "ves", "s_surface", 0).overrides("paper", root=tmp_path,
-                                                                frames=50000)  # fmt: skip
+    lac = Job("diffusion_lac", "ves", "s_surface", 0).overrides(
+        "paper", root=tmp_path, frames=50000
+    )
     assert "collector.total_frames=50000" in lac and "eval.ranks=True" in lac
     assert f"run_dir={tmp_path}/jobs/diffusion_lac/ves/s_surface/seed0" in lac
     assert f"proposer.cache_dir={tmp_path}/first_stage" in lac

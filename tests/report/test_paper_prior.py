@@ -34,8 +34,10 @@ def _job(root, job, *, start, end, end_ssn, alone=(1.5, 10.0), curve=True):
 
 def test_each_job_is_compared_with_its_own_proposer_alone(tmp_path):
     rl = [Job("diffusion_rl", "es", "s_surface", s) for s in (0, 1, 2)]
-    lac = [Job("diffusion_lac", "ves", "pid", 0), Job("diffusion_lac", "ves", "s_surface", 0,
-                                                       "fixed-softplus-alpha0.1")]  # fmt: skip
+    lac = [
+        Job("diffusion_lac", "ves", "pid", 0),
+        Job("diffusion_lac", "ves", "s_surface", 0, "fixed-softplus-alpha0.1"),
+    ]
     _job(tmp_path, rl[0], start=6.0, end=1.2, end_ssn=8.0)  # starts worse, ends cheaper, fewer
     _job(tmp_path, rl[1], start=1.4, end=1.45, end_ssn=12.0, alone=(1.5, 10.0))
     # within 1 % of the proposer alone's value: a tie, counted as compared but not as holding
@@ -45,10 +47,18 @@ def test_each_job_is_compared_with_its_own_proposer_alone(tmp_path):
     unfinished = Job("diffusion_lac", "ves", "smc", 0)  # no eval.csv: not counted
     others = [Job("sac", "es", "s_surface", 0), Job("diffusion", "es", "s_surface", 0)]
     counts = prior_counts(tmp_path, [*rl, *lac, unfinished, *others])
-    assert counts["diffusion_rl"] == {"jobs": 3, "start_worse": (1, 3), "end_cheaper": (2, 3),
-                                      "end_fewer_ssn": (1, 3)}  # fmt: skip
-    assert counts["diffusion_lac"] == {"jobs": 1, "start_worse": (0, 0), "end_cheaper": (1, 1),
-                                       "end_fewer_ssn": (1, 1)}  # fmt: skip
+    assert counts["diffusion_rl"] == {
+        "jobs": 3,
+        "start_worse": (1, 3),
+        "end_cheaper": (2, 3),
+        "end_fewer_ssn": (1, 3),
+    }
+    assert counts["diffusion_lac"] == {
+        "jobs": 1,
+        "start_worse": (0, 0),
+        "end_cheaper": (1, 1),
+        "end_fewer_ssn": (1, 1),
+    }
     text = "\n".join(format_prior(counts))
     assert "| costs more than the proposer alone at frame 0" in text
     assert "| 1 of 3 | 0 of 0 |" in text and "| 2 of 3 | 1 of 1 |" in text
@@ -122,8 +132,10 @@ def _terms_job(root, job, own, alone, *, ended=(0.0, 0.0), variant_csv=False):
         f"share_{t}" for t in COST_TERMS
     )
     rows = [header]
-    for policy, (cost, named), end in ((job.framework, own, ended[0]),
-                                       ("proposer alone", alone, ended[1])):  # fmt: skip
+    for policy, (cost, named), end in (
+        (job.framework, own, ended[0]),
+        ("proposer alone", alone, ended[1]),
+    ):
         rest = (1.0 - sum(named.values())) / (len(COST_TERMS) - len(named))
         shares = [named.get(t, rest) for t in COST_TERMS]
         rows.append(f"{job.sea},{policy},{cost},8,{end}," + ",".join(map(str, shares)))
@@ -133,11 +145,19 @@ def _terms_job(root, job, own, alone, *, ended=(0.0, 0.0), variant_csv=False):
 def test_cost_term_changes_split_each_jobs_change_by_term(tmp_path):
     rl = [Job("diffusion_rl", "es", "s_surface", s) for s in (0, 1, 2)]
     # seed 0: violation 0.5 -> 0.1, distance 0.2 -> 0.3 (cost 2.0 -> 1.6)
-    _terms_job(tmp_path, rl[0], (1.6, {"violation": 0.1 / 1.6, "distance": 0.3 / 1.6}),
-               (2.0, {"violation": 0.25, "distance": 0.1}))  # fmt: skip
+    _terms_job(
+        tmp_path,
+        rl[0],
+        (1.6, {"violation": 0.1 / 1.6, "distance": 0.3 / 1.6}),
+        (2.0, {"violation": 0.25, "distance": 0.1}),
+    )
     # seed 1: violation 0.3 -> 0.1, distance 0.2 -> 0.205 (within 1 % of 2.0: a tie)
-    _terms_job(tmp_path, rl[1], (1.805, {"violation": 0.1 / 1.805, "distance": 0.205 / 1.805}),
-               (2.0, {"violation": 0.15, "distance": 0.1}))  # fmt: skip
+    _terms_job(
+        tmp_path,
+        rl[1],
+        (1.805, {"violation": 0.1 / 1.805, "distance": 0.205 / 1.805}),
+        (2.0, {"violation": 0.15, "distance": 0.1}),
+    )
     # seed 2: a scene of the proposer alone ended early: its termination cost is in no term
     _terms_job(tmp_path, rl[2], (1.0, {}), (700.0, {}), ended=(0.0, 0.25))
     variant = Job("diffusion_lac", "ves", "s_surface", 0, "fixed-softplus-alpha0.1")

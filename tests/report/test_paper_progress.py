@@ -16,10 +16,12 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _grid_folders(root: Path, store: Path) -> list[Job]:
-    here, stored, stopped, new = (Job("sac", "ves", "s_surface", 0),
-                                  Job("diffusion_rl", "ves", "s_surface", 0),
-                                  Job("diffusion_lac", "ves", "s_surface", 0),
-                                  Job("diffusion_lac", "ves", "s_surface", 1))  # fmt: skip
+    here, stored, stopped, new = (
+        Job("sac", "ves", "s_surface", 0),
+        Job("diffusion_rl", "ves", "s_surface", 0),
+        Job("diffusion_lac", "ves", "s_surface", 0),
+        Job("diffusion_lac", "ves", "s_surface", 1),
+    )
     (root / "jobs" / here.name).mkdir(parents=True)
     (root / "jobs" / here.name / "eval.csv").write_text("sea_state,policy\n")
     (store / "jobs" / stored.name).mkdir(parents=True)
@@ -32,13 +34,21 @@ def _grid_folders(root: Path, store: Path) -> list[Job]:
 def test_each_job_has_its_state_and_the_time_left_follows_the_sittings(tmp_path):
     root, store = tmp_path / "run", tmp_path / "store"
     jobs = _grid_folders(root, store)
-    sittings = [{"start": "2026-12-04T20:00:00+00:00", "end": "2026-12-04T21:30:00+00:00",
-                 "jobs_finished": 2},
-                {"start": "2026-12-05T09:00:00+00:00", "end": None,
-                 "jobs_finished": 0}]  # fmt: skip
+    sittings = [
+        {
+            "start": "2026-12-04T20:00:00+00:00",
+            "end": "2026-12-04T21:30:00+00:00",
+            "jobs_finished": 2,
+        },
+        {"start": "2026-12-05T09:00:00+00:00", "end": None, "jobs_finished": 0},
+    ]
     status = grid_status(root, jobs, store=store, sittings=sittings)
     assert [(state, frames) for _, state, frames in status["jobs"]] == [
-        ("done", None), ("done", None), ("stopped", 30000), ("new", None)]  # fmt: skip
+        ("done", None),
+        ("done", None),
+        ("stopped", 30000),
+        ("new", None),
+    ]
     assert status["finished"] == 2 and status["total"] == 4
     assert dict(status["counts"]["diffusion_lac"]) == {"stopped": 1, "new": 1}
     # 2 jobs in 1.5 h: 2 left take 1.5 h (a sitting without a finished job adds no hours)
@@ -71,8 +81,9 @@ def test_sittings_at_the_same_time_count_their_hours_once():
     overlapping = [sitting("02:00", "05:00"), sitting("01:00", "03:00"), sitting("06:00", "07:00")]
     assert math.isclose(sitting_hours(overlapping), 5.0)
     assert sitting_hours([sitting("03:00", "02:00")]) == 0.0  # an end before its start
-    assert math.isclose(sitting_hours([*overlapping, {"start": "2026-12-05T00:00:00+00:00",
-                                                      "end": None}]), 5.0)  # fmt: skip
+    assert math.isclose(
+        sitting_hours([*overlapping, {"start": "2026-12-05T00:00:00+00:00", "end": None}]), 5.0
+    )
 
 
 def test_run_all_status_prints_the_grid_and_runs_and_writes_nothing(tmp_path):
@@ -80,11 +91,21 @@ def test_run_all_status_prints_the_grid_and_runs_and_writes_nothing(tmp_path):
     _grid_folders(root, store)
     before = sorted(tmp_path.rglob("*"))
     done = subprocess.run(
-        [sys.executable, str(REPO / "recipes" / "paper" / "run_all.py"), "budget=paper",
-         f"run_root={root}", f"store={store}", "status=true",
-         "jobs=false", "report=false"],  # (were status ignored: no job would start)
-        cwd=tmp_path, capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
+        [
+            sys.executable,
+            str(REPO / "recipes" / "paper" / "run_all.py"),
+            "budget=paper",
+            f"run_root={root}",
+            f"store={store}",
+            "status=true",
+            "jobs=false",
+            "report=false",
+        ],  # (were status ignored: no job would start)
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert "102 jobs (paper budget, seeds [0, 1, 2])" in done.stdout
     assert "finished 2 of 102" in done.stdout

@@ -15,11 +15,34 @@ from torchrl_auv.report.paper.figures import pool_traces, tenth_means
 from torchrl_auv.report.paper.grid import Job, experiment_jobs
 from torchrl_auv.report.paper.output import mean_std, write_table
 
-POLICIES = ("diffusion_rl", "diffusion_lac", "sac", "diffusion", "OA", "CA1", "CA2", "CA3",
-            "CA4", "RL", "proposer alone", "expert", "random")  # fmt: skip
-COLUMNS = ("sdr_mbit", "ssn", "ec_w", "cost_mean", "decisions", "heading_error_mean",
-           "heading_error_std", "depth_error_mean", "depth_error_std", "violation_rate",
-           "terminated")  # fmt: skip
+POLICIES = (
+    "diffusion_rl",
+    "diffusion_lac",
+    "sac",
+    "diffusion",
+    "OA",
+    "CA1",
+    "CA2",
+    "CA3",
+    "CA4",
+    "RL",
+    "proposer alone",
+    "expert",
+    "random",
+)
+COLUMNS = (
+    "sdr_mbit",
+    "ssn",
+    "ec_w",
+    "cost_mean",
+    "decisions",
+    "heading_error_mean",
+    "heading_error_std",
+    "depth_error_mean",
+    "depth_error_std",
+    "violation_rate",
+    "terminated",
+)
 
 
 def _value(job: Job, policy: str, column: str) -> float:
@@ -35,12 +58,15 @@ def _fake_job(root, job: Job) -> None:
         writer.writerow(["sea_state", "policy", *COLUMNS])
         for policy in POLICIES:
             writer.writerow([job.sea, policy, *(_value(job, policy, c) for c in COLUMNS)])
-    lines = ["step,key,value"] + [f"{step},eval/{key},{step / 100 + job.seed}"
-                                  for step in (0, 100, 200)
-                                  for key in ("cost_mean", "sdr_mbit", "ssn", "ec_w")]  # fmt: skip
+    lines = ["step,key,value"] + [
+        f"{step},eval/{key},{step / 100 + job.seed}"
+        for step in (0, 100, 200)
+        for key in ("cost_mean", "sdr_mbit", "ssn", "ec_w")
+    ]
     (folder / "eval_curve.csv").write_text("\n".join(lines) + "\n")
-    train = ["step,key,value"] + [f"{step},train/cost_mean,{step / 1000 + job.seed}"
-                                  for step in range(1000, 10_001, 1000)]  # fmt: skip
+    train = ["step,key,value"] + [
+        f"{step},train/cost_mean,{step / 1000 + job.seed}" for step in range(1000, 10_001, 1000)
+    ]
     train += [f"{step},train/episode_ssn,{job.seed}" for step in (3000, 8000)]
     (folder / "train_curve.csv").write_text("\n".join(train) + "\n")
     trace = ["decision,mean,std,episodes"] + [f"{t},{10 - t + job.seed},1.0,4" for t in range(5)]
@@ -90,11 +116,23 @@ def test_a_missing_job_is_counted_not_invented(root):
 def test_figures_and_their_numbers(root):
     paths = write_report(root, ["fig7", "fig10", "advisor"], seeds=(0, 1, 2), budget="quick")
     names = {p.name for p in paths}
-    assert {"fig7.png", "fig7.csv", "fig10.png", "fig10_lyapunov.json", "advisor.md",
-            "run.json"} <= names  # fmt: skip
+    assert {
+        "fig7.png",
+        "fig7.csv",
+        "fig10.png",
+        "fig10_lyapunov.json",
+        "advisor.md",
+        "run.json",
+    } <= names
     curve = json.loads((root / "report/fig7/fig7.json").read_text())["rows"]
-    point = next(r for r in curve if r["sea_state"] == "es" and r["framework"] == "RL (SAC)"
-                 and r["metric"] == "eval/ssn" and r["frames"] == 200)  # fmt: skip
+    point = next(
+        r
+        for r in curve
+        if r["sea_state"] == "es"
+        and r["framework"] == "RL (SAC)"
+        and r["metric"] == "eval/ssn"
+        and r["frames"] == 200
+    )
     assert point["value"] == pytest.approx(3.0) and point["value_std"] == pytest.approx(1.0)
     trace = json.loads((root / "report/fig10/fig10_lyapunov.json").read_text())["rows"]
     assert [r["variant"] for r in trace] == ["alpha 0.05", "alpha 0.1", "alpha 0.25", "alpha 0.5"]
@@ -133,13 +171,26 @@ def test_the_advisor_table_counts_the_spec_changes_each_job_applied(root):
     )
     spec = {"form": "softplus", "prior": None}
     # (alpha before, alpha decided, applied): kept, changed, re-rounded, refused
-    steps = [(0.1, 0.1, False), (0.1, 0.156483279, True), (0.156483279, 0.156483, True),
-             (0.156483, 0.3, False)]  # fmt: skip
-    (root / "jobs" / model.name / "advisor.jsonl").write_text("".join(
-        json.dumps({"frame": 1000 * i, "applied": applied,
+    steps = [
+        (0.1, 0.1, False),
+        (0.1, 0.156483279, True),
+        (0.156483279, 0.156483, True),
+        (0.156483, 0.3, False),
+    ]
+    (root / "jobs" / model.name / "advisor.jsonl").write_text(
+        "".join(
+            json.dumps(
+                {
+                    "frame": 1000 * i,
+                    "applied": applied,
                     "spec_before": {**spec, "alpha": before, "prior_weight": 1.0},
-                    "decision": {**spec, "alpha": after, "rationale": ""}}) + "\n"
-        for i, (before, after, applied) in enumerate(steps)))  # fmt: skip
+                    "decision": {**spec, "alpha": after, "rationale": ""},
+                }
+            )
+            + "\n"
+            for i, (before, after, applied) in enumerate(steps)
+        )
+    )
     write_report(root, ["advisor"], seeds=(0, 1, 2), budget="paper")
     rows = json.loads((root / "report/advisor/advisor.json").read_text())["rows"]
     rules, fixed, llm = rows
@@ -162,10 +213,20 @@ def test_fig5_6_is_drawn_again_from_stored_rollouts_where_the_first_stage_is_gon
     """The machine that built the first stage wrote fig5_6.json; the store carries it to a
     machine without the first stage, where Fig. 5/6 is drawn from it."""
     first, store_dir, second = tmp_path / "m1", tmp_path / "store", tmp_path / "m2"
-    paths = [[[[[10.0 * s + k + t, 2.0 * t + auv, 5.0] for auv in range(2)] for t in range(9)]
-              for k in range(5)] for s in range(3)]  # fmt: skip
-    rollouts = {"header": "h", "artefact": "/m1/first_stage/ves-s_surface-shannon-seed0-abc",
-                "stages": ["a", "b", "c"], "chunks": [], "paths_ned_m": paths}  # fmt: skip
+    paths = [
+        [
+            [[[10.0 * s + k + t, 2.0 * t + auv, 5.0] for auv in range(2)] for t in range(9)]
+            for k in range(5)
+        ]
+        for s in range(3)
+    ]
+    rollouts = {
+        "header": "h",
+        "artefact": "/m1/first_stage/ves-s_surface-shannon-seed0-abc",
+        "stages": ["a", "b", "c"],
+        "chunks": [],
+        "paths_ned_m": paths,
+    }
     (first / "report" / "fig5_6").mkdir(parents=True)
     (first / "report" / "fig5_6" / "fig5_6.json").write_text(json.dumps(rollouts))
     assert store.save_finished(first, store_dir, []) == []  # not right after a report
@@ -185,8 +246,10 @@ def test_fig5_6_is_drawn_again_from_stored_rollouts_where_the_first_stage_is_gon
 
 def test_fig8_9_puts_the_papers_numbers_beside_ours(tmp_path):
     write_report(tmp_path, ["fig8_9"], seeds=(0,), budget="quick")
-    rows = {r["policy"]: r for r in json.loads((tmp_path / "report/fig8_9/fig8_9.json")
-                                               .read_text())["rows"]}  # fmt: skip
+    rows = {
+        r["policy"]: r
+        for r in json.loads((tmp_path / "report/fig8_9/fig8_9.json").read_text())["rows"]
+    }
     assert rows["OA"]["paper ssn"] == 67.0 and rows["RL (LAC)"]["paper sdr_mbit"] == 105.0
     assert (
         rows["CA4"]["paper ec_w"] == 378.0 and rows["CA3"]["paper ssn"] != rows["CA3"]["paper ssn"]
@@ -203,9 +266,17 @@ def test_fig8_9_shows_the_proposer_alone_the_expert_and_random_as_reference_rows
     write_report(root, ["fig8_9"], seeds=(0, 1, 2), budget="paper")
     rows = json.loads((root / "report/fig8_9/fig8_9.json").read_text())["rows"]
     names = [r["policy"] for r in rows]
-    assert names == ["OA", "CA1", "CA2", "CA3", "CA4", "RL (LAC)",
-                     "proposer alone (reference)", "expert (reference)",
-                     "random (reference)"]  # fmt: skip
+    assert names == [
+        "OA",
+        "CA1",
+        "CA2",
+        "CA3",
+        "CA4",
+        "RL (LAC)",
+        "proposer alone (reference)",
+        "expert (reference)",
+        "random (reference)",
+    ]
     jobs = [Job("diffusion_lac", "ves", "s_surface", s) for s in (0, 1, 2)]
     for row, policy in zip(rows[6:], ("proposer alone", "expert", "random"), strict=True):
         assert row["runs"] == 3 and row["ssn"] == _mean(jobs, policy, "ssn")
@@ -226,8 +297,11 @@ def test_the_sampler_time_of_an_earlier_report_stands_where_the_first_stage_is_g
     config.write_text("proposer:\n  sampler: ddim\n  num_inference_steps: 10\n  history: 10\n")
     out = tmp_path / "report" / "sampler"
     out.mkdir(parents=True)
-    earlier = {"rows": [{"variant": "10 DDIM steps", "sampler": "ddim 10",
-                         "proposer_s_per_decision": 0.0042}]}  # fmt: skip
+    earlier = {
+        "rows": [
+            {"variant": "10 DDIM steps", "sampler": "ddim 10", "proposer_s_per_decision": 0.0042}
+        ]
+    }
     (out / "sampler.json").write_text(json.dumps(earlier))
     write_report(tmp_path, ["sampler"], seeds=(0,), budget="paper")
     rows = json.loads((out / "sampler.json").read_text())["rows"]
@@ -255,8 +329,14 @@ def test_fig7_reads_the_curves_of_finished_jobs_only(root):
     (root / "jobs" / Job("sac", "es", "s_surface", 2).name / "eval.csv").unlink()
     write_report(root, ["fig7"], seeds=(0, 1, 2), budget="quick")
     curve = json.loads((root / "report/fig7/fig7.json").read_text())["rows"]
-    point = next(r for r in curve if r["sea_state"] == "es" and r["framework"] == "RL (SAC)"
-                 and r["metric"] == "eval/ssn" and r["frames"] == 200)  # fmt: skip
+    point = next(
+        r
+        for r in curve
+        if r["sea_state"] == "es"
+        and r["framework"] == "RL (SAC)"
+        and r["metric"] == "eval/ssn"
+        and r["frames"] == 200
+    )
     assert point["runs"] == 2 and point["value"] == pytest.approx(2.5)  # seeds 0 and 1
 
 
@@ -348,11 +428,17 @@ def test_one_seed_states_no_spread(tmp_path):
     mean, std = mean_std([2.0, math.nan])
     assert mean == 2.0 and math.isnan(std)
     assert mean_std([2.0, 2.0]) == (2.0, 0.0)  # two equal values: a spread of 0, measured
-    rows = [{"cell": "one", "x": mean, "x_std": std}, {"cell": "two", "x": 2.0, "x_std": 0.0},
-            {"cell": "none", "x": math.nan, "x_std": math.nan}]  # fmt: skip
+    rows = [
+        {"cell": "one", "x": mean, "x_std": std},
+        {"cell": "two", "x": 2.0, "x_std": 0.0},
+        {"cell": "none", "x": math.nan, "x_std": math.nan},
+    ]
     (md, _, _) = write_table(tmp_path, "t", rows, ["cell", "x"], header="h")
-    assert md.read_text().splitlines()[4:] == ["| one | 2 (one seed) |", "| two | 2 ± 0 |",
-                                               "| none | nan ± nan |"]  # fmt: skip
+    assert md.read_text().splitlines()[4:] == [
+        "| one | 2 (one seed) |",
+        "| two | 2 ± 0 |",
+        "| none | nan ± nan |",
+    ]
 
 
 def test_the_lyapunov_cost_table_states_the_multiplier_and_the_condition_at_the_end(root):

@@ -21,8 +21,17 @@ def _finish(root, job, **metrics):
     with open(folder / "eval.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=COLUMNS)
         writer.writeheader()
-        writer.writerow({"sea_state": job.sea, "policy": job.framework, "cost_mean": 0.0,
-                         "ssn": 0.0, "sdr_mbit": 0.0, "ec_w": 0.0, **metrics})  # fmt: skip
+        writer.writerow(
+            {
+                "sea_state": job.sea,
+                "policy": job.framework,
+                "cost_mean": 0.0,
+                "ssn": 0.0,
+                "sdr_mbit": 0.0,
+                "ec_w": 0.0,
+                **metrics,
+            }
+        )
 
 
 def _claim(text_start):
@@ -52,8 +61,13 @@ def test_claims_are_judged_from_each_jobs_own_row(tmp_path):
             _finish(tmp_path, Job("sac", sea, "s_surface", seed), cost_mean=2.0 + 0.01 * seed)
             for framework in ("diffusion_rl", "diffusion_lac"):
                 cost = 3.0 if sea == "ves" else 1.0 + 0.01 * seed
-                _finish(tmp_path, Job(framework, sea, "s_surface", seed), cost_mean=cost,
-                        ssn=5.0 + seed, sdr_mbit=9.0 + seed)  # fmt: skip
+                _finish(
+                    tmp_path,
+                    Job(framework, sea, "s_surface", seed),
+                    cost_mean=cost,
+                    ssn=5.0 + seed,
+                    sdr_mbit=9.0 + seed,
+                )
     rows = judge(tmp_path, seeds)
     cost = rows[_claim("Diffusion+RL and Diffusion+RL (LAC) reach a better return")]
     outcomes = [outcome for outcome, _ in cost["comparisons"]]
@@ -93,13 +107,30 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     (report / "table2" / "table2.md").write_text(
         "budget paper, seeds [0]\n\n| framework | ssn |\n|---|---|\n| LAC | nan ± nan |\n"
     )
-    (report / "run.json").write_text(json.dumps(
-        {"budget": "paper", "frames": 50000, "commit": "abc1234", "command": "run_all.py x",
-         "date": "2026-12-04", "machine": "Linux"}))  # fmt: skip
-    sittings = [{"start": "2026-12-04T19:00:00+00:00", "end": "2026-12-04T20:30:00+00:00",
-                 "jobs_finished": 3},
-                {"start": "2026-12-05T09:00:00+00:00", "end": "2026-12-05T09:45:00+00:00",
-                 "jobs_finished": 1}]  # fmt: skip
+    (report / "run.json").write_text(
+        json.dumps(
+            {
+                "budget": "paper",
+                "frames": 50000,
+                "commit": "abc1234",
+                "command": "run_all.py x",
+                "date": "2026-12-04",
+                "machine": "Linux",
+            }
+        )
+    )
+    sittings = [
+        {
+            "start": "2026-12-04T19:00:00+00:00",
+            "end": "2026-12-04T20:30:00+00:00",
+            "jobs_finished": 3,
+        },
+        {
+            "start": "2026-12-05T09:00:00+00:00",
+            "end": "2026-12-05T09:45:00+00:00",
+            "jobs_finished": 1,
+        },
+    ]
     write_results_page(root, page, seeds=[0], jobs=jobs, sittings=sittings)
     text = page.read_text()
     assert (tmp_path / "docs" / "results" / "fig7.png").read_bytes() == b"\x89PNG figure"
@@ -108,11 +139,15 @@ def test_the_page_embeds_the_report_and_counts_the_finished_jobs(tmp_path):
     assert "nan" not in text
     assert "**1 of 2**" in text
     # 4 jobs in 2.25 h of sittings: the one left takes about 0.56 h
-    assert ("| jobs finished | 1 of 2; about 0.6 h more at the sittings' rate so far (1.8 jobs "
-            "per hour) |") in text  # fmt: skip
+    assert (
+        "| jobs finished | 1 of 2; about 0.6 h more at the sittings' rate so far (1.8 jobs "
+        "per hour) |"
+    ) in text
     assert "| wall time | 2.2 h over 2 sittings" in text and "4 jobs finished in them" in text
-    assert ("| training speed | frames/s per job as the grid ran them, median and range: RL "
-            "(SAC) 42 (1 job) |") in text  # fmt: skip
+    assert (
+        "| training speed | frames/s per job as the grid ran them, median and range: RL "
+        "(SAC) 42 (1 job) |"
+    ) in text
     assert "1.5 h of one core" in text and "`abc1234`" in text and "50,000 frames" in text
     # every claim has its verdict row, and an experiment without outputs says so
     assert text.count("| **not run yet** |") == len(CLAIMS)
@@ -131,17 +166,33 @@ def test_rank_returns_and_the_convergence_point_are_the_pages_own(tmp_path):
         folder = tmp_path / "jobs" / Job("diffusion_lac", "ves", "s_surface", seed).name
         folder.mkdir(parents=True)
         rows = ["sea_state,policy,cost_mean,decisions"]
-        for policy, cost, decisions in (("OA", 1.0, 1000), ("CA1", 1.2, 1000),
-                                        ("CA2", 1.4, 1000), ("CA3", 1.6, 1000),
-                                        ("CA4", 5.0, 100)):  # fmt: skip
+        for policy, cost, decisions in (
+            ("OA", 1.0, 1000),
+            ("CA1", 1.2, 1000),
+            ("CA2", 1.4, 1000),
+            ("CA3", 1.6, 1000),
+            ("CA4", 5.0, 100),
+        ):
             rows.append(f"ves,{policy},{cost + 0.01 * seed},{decisions}")
         (folder / "eval.csv").write_text("\n".join(rows) + "\n")
-    curve = [{"sea_state": sea, "framework": label, "metric": "eval/cost_mean", "frames": f,
-              "runs": 3, "value": value, "value_std": 0.01}
-             for sea in ("ideal", "es", "ves")
-             for label, at0, at25 in (("RL (SAC)", 20.0, 1.5), ("Diffusion+RL", 1.6, 2.0),
-                                      ("Diffusion+RL (LAC)", 1.6, 2.0))
-             for f, value in ((0, at0), (25000, at25))]  # fmt: skip
+    curve = [
+        {
+            "sea_state": sea,
+            "framework": label,
+            "metric": "eval/cost_mean",
+            "frames": f,
+            "runs": 3,
+            "value": value,
+            "value_std": 0.01,
+        }
+        for sea in ("ideal", "es", "ves")
+        for label, at0, at25 in (
+            ("RL (SAC)", 20.0, 1.5),
+            ("Diffusion+RL", 1.6, 2.0),
+            ("Diffusion+RL (LAC)", 1.6, 2.0),
+        )
+        for f, value in ((0, at0), (25000, at25))
+    ]
     (tmp_path / "report" / "fig7").mkdir(parents=True)
     (tmp_path / "report" / "fig7" / "fig7.json").write_text(json.dumps({"rows": curve}))
     rows = judge(tmp_path, (0, 1, 2))
@@ -185,12 +236,14 @@ def test_training_speed_counts_sessions_that_trained_and_training_jobs_only(tmp_
     """The proposer alone (its 1,000 acting frames) and a short resumed session (mostly
     start-up) say nothing about training speed; the sampler ablation is its own row."""
     root, page = tmp_path / "run", tmp_path / "docs" / "results.md"
-    facts = {Job("diffusion_lac", "ves", "s_surface", 0): (40.0, 1250),
-             Job("diffusion_lac", "ves", "s_surface", 1): (50.0, 1000),
-             Job("diffusion_lac", "ves", "s_surface", 2): (90.0, 100),  # 9,000 frames
-             Job("diffusion_lac", "es", "s_surface", 0): (60.0, 1000),  # stated: 15,000
-             Job("diffusion_lac", "ves", "s_surface", 0, "ddim10"): (77.0, 650),
-             Job("diffusion", "ves", "s_surface", 0): (5.0, 200)}  # fmt: skip
+    facts = {
+        Job("diffusion_lac", "ves", "s_surface", 0): (40.0, 1250),
+        Job("diffusion_lac", "ves", "s_surface", 1): (50.0, 1000),
+        Job("diffusion_lac", "ves", "s_surface", 2): (90.0, 100),  # 9,000 frames
+        Job("diffusion_lac", "es", "s_surface", 0): (60.0, 1000),  # stated: 15,000
+        Job("diffusion_lac", "ves", "s_surface", 0, "ddim10"): (77.0, 650),
+        Job("diffusion", "ves", "s_surface", 0): (5.0, 200),
+    }
     for job, (fps, wall) in facts.items():
         _finish(root, job)
         stated = "- frames this session: 15000\n" if job.sea == "es" else ""
@@ -198,8 +251,10 @@ def test_training_speed_counts_sessions_that_trained_and_training_jobs_only(tmp_
             f"{stated}- wall time this session (s): {wall}\n- training frames/s: {fps}\n"
         )
     text = write_results_page(root, page, seeds=[0, 1, 2], jobs=list(facts)).read_text()
-    assert ("median and range: Diffusion+RL (LAC) 45, 40-50 (2 jobs); Diffusion+RL (LAC), "
-            "10 DDIM steps 77 (1 job) |") in text  # fmt: skip
+    assert (
+        "median and range: Diffusion+RL (LAC) 45, 40-50 (2 jobs); Diffusion+RL (LAC), "
+        "10 DDIM steps 77 (1 job) |"
+    ) in text
 
 
 def test_the_pages_k_is_the_paper_presets_number_of_candidates():

@@ -34,6 +34,8 @@ def test_one_run_has_no_spread_and_the_table_says_so(tmp_path):
         .endswith("| 1 | 1.5 (one run) |")
     )
     _run(tmp_path / "b", 1, 2.5)
-    table = markdown_table(aggregate(load_runs(tmp_path), over="seed", metrics=["cost_mean"],
-                                     policies=None), metrics=["cost_mean"])  # fmt: skip
+    table = markdown_table(
+        aggregate(load_runs(tmp_path), over="seed", metrics=["cost_mean"], policies=None),
+        metrics=["cost_mean"],
+    )
     assert table.splitlines()[-1].endswith("| 2 | 2 ± 0.707 |")

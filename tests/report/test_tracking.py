@@ -53,12 +53,20 @@ def test_kalman_observer_fixes_carry_the_asv_gnss_error_and_dvl_gating_is_opt_in
     for seabed in (None, 100.0):
         gen = torch.Generator().manual_seed(0)
         obs = KalmanObserver("ideal", (8,), generator=gen, seabed_depth=seabed)
-        simulate(make_controller("pid"), tracking_schedule(), 20.0, batch_shape=(8,),
-                 start_depth=10.0, generator=gen, observer=obs)  # fmt: skip
+        simulate(
+            make_controller("pid"),
+            tracking_schedule(),
+            20.0,
+            batch_shape=(8,),
+            start_depth=10.0,
+            generator=gen,
+            observer=obs,
+        )
         observers[seabed] = obs
     kf_rms, usbl_rms = observers[None].rms()
     assert 0.7 < usbl_rms < 2.5, usbl_rms  # chi(2) RMS of 1 m per axis: 1.41 m
     assert kf_rms > 0.3, kf_rms
-    velocity_var = {k: o.cov[:, 3:5, 3:5].diagonal(dim1=-2, dim2=-1).mean().item()
-                    for k, o in observers.items()}  # fmt: skip
+    velocity_var = {
+        k: o.cov[:, 3:5, 3:5].diagonal(dim1=-2, dim2=-1).mean().item() for k, o in observers.items()
+    }
     assert velocity_var[100.0] > 10 * velocity_var[None], velocity_var

@@ -30,8 +30,9 @@ def test_same_values_reuse_the_folder_and_other_values_get_their_own(tmp_path):
     # the same values in another order: the same key, reused without building
     again, built = cache.get_or_build("ves-seed0", dict(reversed(values.items())), _build_counting)
     assert again == folder and not built
-    other, built = cache.get_or_build("ves-seed0", {**values, "model": {"hidden": 128}},
-                                      _build_counting)  # fmt: skip
+    other, built = cache.get_or_build(
+        "ves-seed0", {**values, "model": {"hidden": 128}}, _build_counting
+    )
     assert built and other != folder and folder.exists()
     assert (tmp_path / "builds.txt").read_text() == "xx"
     assert values_key(values) in folder.name

@@ -21,8 +21,9 @@ def collected():
     proposer = DiffusionProposer.for_env(env, num_candidates=3, horizon=2, num_inference_steps=2)
     critic = training.make_lyapunov_critic(env, (16,))
     rule = training.selection_rule_from_config({"selection": {"anchor": "medoid"}})
-    policy = training.make_selection_policy(proposer, critic, mode="lyapunov", rule=rule,
-                                             critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
+    policy = training.make_selection_policy(
+        proposer, critic, mode="lyapunov", rule=rule, critic_out_key=training.LYAPUNOV_RAW
+    )
     data = env.rollout(7, policy, break_when_any_done=False)
     return env, proposer, critic, rule, data
 
@@ -92,12 +93,14 @@ def test_both_learners_step_on_the_frames_the_buffer_stores(collected):
 
 @pytest.mark.parametrize(
     ("selection", "named"),
-    [({"backup": "policy"}, "selection.backup"),
-     ({"anchor": "mean"}, "selection.anchor"),
-     ({"margin": -0.1}, "selection.margin"),
-     ({"warmup_frames": -1}, "selection.warmup_frames"),
-     ({"warmup_frames": 100}, "selection.anchor=medoid")],
-)  # fmt: skip
+    [
+        ({"backup": "policy"}, "selection.backup"),
+        ({"anchor": "mean"}, "selection.anchor"),
+        ({"margin": -0.1}, "selection.margin"),
+        ({"warmup_frames": -1}, "selection.warmup_frames"),
+        ({"warmup_frames": 100}, "selection.anchor=medoid"),
+    ],
+)
 def test_a_bad_selection_value_is_named_before_any_work(selection, named):
     with pytest.raises(ValueError, match=named):
         training.check_choices({"selection": {"include_actor": False, **selection}})

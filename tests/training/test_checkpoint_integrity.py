@@ -19,8 +19,9 @@ def _two_checkpoints(run_dir):
     net = torch.nn.Linear(8, 16)
     optimiser = torch.optim.Adam(net.parameters())
     progress = {"frames": 0}
-    checkpoint, rotation = make_checkpoint(run_dir, modules={"net": net, "opt": optimiser},
-                                           progress=progress, keep_last=2)  # fmt: skip
+    checkpoint, rotation = make_checkpoint(
+        run_dir, modules={"net": net, "opt": optimiser}, progress=progress, keep_last=2
+    )
     for frames, value in ((100, 1.0), (200, 2.0)):
         with torch.no_grad():
             net.weight.fill_(value)
@@ -40,8 +41,9 @@ def _flip_a_byte(path):
 
 
 def _weights(root):
-    return max((p for p in root.rglob("*.memmap") if "0000-net" in str(p)),
-               key=lambda p: p.stat().st_size)  # fmt: skip
+    return max(
+        (p for p in root.rglob("*.memmap") if "0000-net" in str(p)), key=lambda p: p.stat().st_size
+    )
 
 
 DAMAGES = {
@@ -106,5 +108,6 @@ def test_a_checkpoint_without_checksums_loads_with_a_warning_when_nothing_verifi
         frames, _ = resume_latest(tmp_path, checkpoint, progress)
     assert frames == 200
     assert [str(w.message)[:40] for w in caught] == [
-        f"checkpoint {rotation.checkpoint_dirs()[-1]}"[:40]]  # fmt: skip
+        f"checkpoint {rotation.checkpoint_dirs()[-1]}"[:40]
+    ]
     assert "cannot be verified" in str(caught[0].message)

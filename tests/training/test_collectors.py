@@ -37,8 +37,15 @@ def _policy() -> TensorDictModule:
 
 def _collect_twice(backend: str, num_workers: int):
     policy = _policy()
-    collector = make_collector(create, policy, seed=7, frames_per_batch=20, total_frames=40,
-                               num_workers=num_workers, backend=backend)  # fmt: skip
+    collector = make_collector(
+        create,
+        policy,
+        seed=7,
+        frames_per_batch=20,
+        total_frames=40,
+        num_workers=num_workers,
+        backend=backend,
+    )
     batches = []
     try:
         for data in collector:
@@ -88,11 +95,13 @@ def test_two_ray_remote_collectors_collect_the_same_frames_with_their_own_seeds(
 
 @pytest.mark.parametrize(
     ("kwargs", "named"),
-    [({"backend": "slurm"}, "collector.backend"),
-     ({"num_workers": 0}, "collector.num_workers"),
-     ({"frames_per_batch": 30, "num_workers": 2}, "collector.frames_per_batch"),
-     ({"seed": None}, "seed")],
-)  # fmt: skip
+    [
+        ({"backend": "slurm"}, "collector.backend"),
+        ({"num_workers": 0}, "collector.num_workers"),
+        ({"frames_per_batch": 30, "num_workers": 2}, "collector.frames_per_batch"),
+        ({"seed": None}, "seed"),
+    ],
+)
 def test_bad_collector_arguments_are_named(kwargs, named):
     args = {"seed": 0, "frames_per_batch": 20, "total_frames": 20, **kwargs}
     with pytest.raises(ValueError, match=named):
@@ -101,8 +110,9 @@ def test_bad_collector_arguments_are_named(kwargs, named):
 
 def test_an_env_instance_cannot_be_sent_to_workers():
     with pytest.raises(ValueError, match="create_env must be an env factory"):
-        make_collector(create(seed=0), _policy(), frames_per_batch=20, total_frames=20,
-                       num_workers=2)  # fmt: skip
+        make_collector(
+            create(seed=0), _policy(), frames_per_batch=20, total_frames=20, num_workers=2
+        )
 
 
 def test_an_unreachable_ray_address_is_refused_within_seconds_naming_it():

@@ -31,13 +31,23 @@ def test_every_batch_is_half_demonstrations():
 
 
 def test_the_demonstrations_are_the_experts_on_their_own_scenes():
-    cfg = OmegaConf.create({
-        "seed": 3, "device": "cpu",
-        "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon",
-                "num_envs": 2, "max_steps": 50, "compile_physics": False},
-        "collector": {"frames_per_batch": 6}, "demonstrations": {"frames": 10},
-        "replay_buffer": {"batch_size": 4},
-    })  # fmt: skip
+    cfg = OmegaConf.create(
+        {
+            "seed": 3,
+            "device": "cpu",
+            "env": {
+                "sea_state": "ideal",
+                "controller": "s_surface",
+                "rate_model": "shannon",
+                "num_envs": 2,
+                "max_steps": 50,
+                "compile_physics": False,
+            },
+            "collector": {"frames_per_batch": 6},
+            "demonstrations": {"frames": 10},
+            "replay_buffer": {"batch_size": 4},
+        }
+    )
     online = training.make_replay_buffer(100, batch_size=4)
     _, frames = training.sampler_from_config(cfg, online)
     assert frames == 12  # two collected batches of 6 cover the 10 asked for

@@ -14,17 +14,26 @@ from torchrl_auv import training
 
 
 def _cfg(every):
-    return OmegaConf.create({
-        "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
-        "collector": {"total_frames": 40},
-        "checkpoint": {"every_frames": 10_000},
-        "eval": {"seed": 100000, "every_frames": every, "curve_envs": 1, "curve_steps": 4},
-    })  # fmt: skip
+    return OmegaConf.create(
+        {
+            "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
+            "collector": {"total_frames": 40},
+            "checkpoint": {"every_frames": 10_000},
+            "eval": {"seed": 100000, "every_frames": every, "curve_envs": 1, "curve_steps": 4},
+        }
+    )
 
 
 def _batch():
-    return TensorDict({"next": {"agents": {"cost": torch.ones(4, 2, 1)},
-                                "done": torch.zeros(4, 1, dtype=torch.bool)}}, [4])  # fmt: skip
+    return TensorDict(
+        {
+            "next": {
+                "agents": {"cost": torch.ones(4, 2, 1)},
+                "done": torch.zeros(4, 1, dtype=torch.bool),
+            }
+        },
+        [4],
+    )
 
 
 class _Calls(TensorDictModule):
@@ -33,8 +42,9 @@ class _Calls(TensorDictModule):
     def __init__(self):
         super().__init__(
             lambda obs: torch.zeros(*obs.shape[:-1], 3),
-            in_keys=[("agents", "observation")], out_keys=[("agents", "action")],
-        )  # fmt: skip
+            in_keys=[("agents", "observation")],
+            out_keys=[("agents", "action")],
+        )
         self.calls = 0
 
     def forward(self, tensordict, *args, **kwargs):
@@ -50,8 +60,9 @@ def _curve_steps(path):
 
 def test_the_curve_is_evaluated_at_the_start_and_at_each_multiple(tmp_path):
     policy, progress = _Calls(), training.Progress()
-    tracker = training.RunTracker(_cfg(10), tmp_path, None, progress, None, None,
-                                  eval_policy=policy)  # fmt: skip
+    tracker = training.RunTracker(
+        _cfg(10), tmp_path, None, progress, None, None, eval_policy=policy
+    )
     assert policy.calls == 4  # frame 0: one episode of curve_steps decisions
     for frames in (8, 16, 30, 31):
         progress.frames = frames
@@ -66,8 +77,9 @@ def test_the_curve_is_evaluated_at_the_start_and_at_each_multiple(tmp_path):
 
 def test_a_resumed_run_does_not_evaluate_its_start_again_and_off_means_off(tmp_path):
     policy, progress = _Calls(), training.Progress(frames=16)
-    tracker = training.RunTracker(_cfg(10), tmp_path, None, progress, None, None,
-                                  eval_policy=policy)  # fmt: skip
+    tracker = training.RunTracker(
+        _cfg(10), tmp_path, None, progress, None, None, eval_policy=policy
+    )
     progress.frames = 19
     tracker.step(_batch(), {})
     assert policy.calls == 0
@@ -76,21 +88,24 @@ def test_a_resumed_run_does_not_evaluate_its_start_again_and_off_means_off(tmp_p
     assert _curve_steps(tmp_path / "eval_curve.csv")[0] == [20]
     off = _Calls()
     (tmp_path / "off").mkdir()
-    training.RunTracker(_cfg(None), tmp_path / "off", None, training.Progress(), None, None,
-                        eval_policy=off).step(_batch(), {})  # fmt: skip
+    training.RunTracker(
+        _cfg(None), tmp_path / "off", None, training.Progress(), None, None, eval_policy=off
+    ).step(_batch(), {})
     assert off.calls == 0 and not (tmp_path / "off" / "eval_curve.csv").exists()
 
 
 def test_a_resumed_run_drops_the_curve_rows_logged_after_its_checkpoint(tmp_path):
     """The session that died logged rows past its last checkpoint; resumed from frames 16,
     the curves go on from 16 and never run back in time."""
-    first = training.RunTracker(_cfg(10), tmp_path, None, training.Progress(), None, None,
-                                eval_policy=_Calls())  # fmt: skip
+    first = training.RunTracker(
+        _cfg(10), tmp_path, None, training.Progress(), None, None, eval_policy=_Calls()
+    )
     for frames in (10, 20, 30):  # curve points at 0, 10, 20, 30; training rows at 10, 20, 30
         first.progress.frames = frames
         first.step(_batch(), {})
-    training.RunTracker(_cfg(10), tmp_path, None, training.Progress(frames=16), None, None,
-                        eval_policy=_Calls())  # fmt: skip
+    training.RunTracker(
+        _cfg(10), tmp_path, None, training.Progress(frames=16), None, None, eval_policy=_Calls()
+    )
     assert _curve_steps(tmp_path / "eval_curve.csv")[0] == [0, 10]
     train_rows = _curve_steps(tmp_path / "train_curve.csv")[1][1:]  # after the header
     assert train_rows and {int(r["step"]) for r in train_rows} == {10}
@@ -99,12 +114,14 @@ def test_a_resumed_run_drops_the_curve_rows_logged_after_its_checkpoint(tmp_path
 def test_a_run_started_again_from_frame_0_owns_no_earlier_rows(tmp_path):
     """A session killed before its first checkpoint, started again (resume= finds nothing to
     load): its frame-0 evaluation and training rows are gone, not repeated beside the new."""
-    first = training.RunTracker(_cfg(10), tmp_path, None, training.Progress(), None, None,
-                                eval_policy=_Calls())  # fmt: skip
+    first = training.RunTracker(
+        _cfg(10), tmp_path, None, training.Progress(), None, None, eval_policy=_Calls()
+    )
     first.progress.frames = 8
     first.step(_batch(), {})
-    training.RunTracker(_cfg(10), tmp_path, None, training.Progress(), None, None,
-                        eval_policy=_Calls())  # fmt: skip
+    training.RunTracker(
+        _cfg(10), tmp_path, None, training.Progress(), None, None, eval_policy=_Calls()
+    )
     steps, rows = _curve_steps(tmp_path / "eval_curve.csv")
     assert steps == [0] and len([r for r in rows if r["key"] == "eval/cost_mean"]) == 1
     assert _curve_steps(tmp_path / "train_curve.csv")[1][1:] == []
@@ -149,8 +166,9 @@ def test_background_curve_points_are_the_foreground_ones_and_checkpoints_hold_th
         folder = tmp_path / str(background)
         folder.mkdir()
         rotation = _Saves(folder / "eval_curve.csv")
-        tracker = training.RunTracker(cfg, folder, None, training.Progress(), None, rotation,
-                                      eval_policy=actor)  # fmt: skip
+        tracker = training.RunTracker(
+            cfg, folder, None, training.Progress(), None, rotation, eval_policy=actor
+        )
         for frames in (8, 16, 24, 32, 40):
             tracker.progress.frames = frames
             tracker.step(_batch(), {})
@@ -160,16 +178,18 @@ def test_background_curve_points_are_the_foreground_ones_and_checkpoints_hold_th
             assert [p for p in points if p <= frames] == [s for s in logged if s <= frames]
         steps, rows = _curve_steps(folder / "eval_curve.csv")
         assert steps == points and rotation.saves[-1][0] == 40
-        runs[background] = {(r["step"], r["key"]): r["value"] for r in rows
-                            if r["key"].startswith("eval/")}  # fmt: skip
+        runs[background] = {
+            (r["step"], r["key"]): r["value"] for r in rows if r["key"].startswith("eval/")
+        }
     assert runs[True] == runs[False]
 
 
 def test_a_session_that_trains_nothing_reports_no_rate_rather_than_zero(tmp_path):
     done = type("Collector", (), {"shutdown": lambda self: None})()
     rotation = _Saves(tmp_path / "eval_curve.csv")
-    resumed = training.RunTracker(_cfg(None), tmp_path, None, training.Progress(frames=40), None,
-                                  rotation)  # fmt: skip
+    resumed = training.RunTracker(
+        _cfg(None), tmp_path, None, training.Progress(frames=40), None, rotation
+    )
     facts = resumed.finish(done)
     assert facts["training frames/s"].startswith("none trained")
     assert (facts["frames"], facts["frames this session"]) == (40, 0)

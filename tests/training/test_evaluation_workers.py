@@ -15,8 +15,9 @@ STEPS = 6
 
 
 def _setup():
-    cfg = OmegaConf.create({"env": {"sea_state": "ideal", "controller": "pid",
-                                    "rate_model": "shannon", "history": 2}})  # fmt: skip
+    cfg = OmegaConf.create(
+        {"env": {"sea_state": "ideal", "controller": "pid", "rate_model": "shannon", "history": 2}}
+    )
     make_env = training.held_out_env(cfg, 2, STEPS)
     env = make_env("ideal", 0)
     proposer = DiffusionProposer.for_env(env, num_inference_steps=3, horizon=4)
@@ -52,11 +53,18 @@ def test_rows_from_two_workers_are_the_rows_of_one_process():
 def test_a_policy_that_cannot_reach_a_worker_is_named_and_a_missing_row_too():
     make_env, policies = _setup()
     with pytest.raises(ValueError, match=r"row 'local'.*picklable"):
-        training.evaluate(make_env, {**policies, "local": lambda env: None}, ["ideal"],
-                          seed=0, steps=STEPS, workers=2)  # fmt: skip
+        training.evaluate(
+            make_env,
+            {**policies, "local": lambda env: None},
+            ["ideal"],
+            seed=0,
+            steps=STEPS,
+            workers=2,
+        )
     with pytest.raises(ValueError, match=r"policies\['OA'\] is the row of 'framework'"):
-        training.evaluate(make_env, {"OA": training.SameRowAs("framework")}, ["ideal"],
-                          seed=0, steps=STEPS)  # fmt: skip
+        training.evaluate(
+            make_env, {"OA": training.SameRowAs("framework")}, ["ideal"], seed=0, steps=STEPS
+        )
     with pytest.raises(ValueError, match="workers must be an int >= 1, got 0"):
         training.evaluate(make_env, policies, ["ideal"], seed=0, steps=STEPS, workers=0)
 
@@ -80,9 +88,13 @@ def test_a_worker_ends_when_its_parent_is_killed():
         "    worker = RowWorker(training.held_out_env(cfg, 1, 2), 'ideal', seed=0, steps=2)\n"
         "    print(worker.pool.submit(os.getpid).result(), flush=True)\n"
         "    time.sleep(600)\n"
-    )  # fmt: skip
-    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True,
-                              env={**os.environ, "OMP_NUM_THREADS": "1"})  # fmt: skip
+    )
+    parent = subprocess.Popen(
+        [sys.executable, "-c", script],
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "OMP_NUM_THREADS": "1"},
+    )
     worker = int(parent.stdout.readline())
     os.kill(worker, 0)  # alive while its parent lives
     parent.send_signal(signal.SIGKILL)

@@ -18,17 +18,36 @@ from torchrl_auv.training.first_stage import FIRST_STAGE_FRAMES_FACT
 
 
 def _cfg(cache_dir, **proposer):
-    return OmegaConf.create({
-        "seed": 0,
-        "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
-        "proposer": {"cache_dir": str(cache_dir), "path": None, "demo_sea_state": "ideal",
-                     "demo_batches": 1, "demo_episodes": 1, "demo_steps": 12, "demo_workers": 1,
-                     "horizon": 4, "history": 2, "hidden": 16, "cond_dim": 16, "depth": 1,
-                     "pretrain_steps": 4, "batch_size": 8, "num_candidates": 2,
-                     "num_inference_steps": 2, "sampler": "ddim", "dagger_rounds": 1,
-                     "dagger_batches": 1, "dagger_inference_steps": 2, "dagger_steps": 3,
-                     **proposer},
-    })  # fmt: skip
+    return OmegaConf.create(
+        {
+            "seed": 0,
+            "env": {"sea_state": "ideal", "controller": "s_surface", "rate_model": "shannon"},
+            "proposer": {
+                "cache_dir": str(cache_dir),
+                "path": None,
+                "demo_sea_state": "ideal",
+                "demo_batches": 1,
+                "demo_episodes": 1,
+                "demo_steps": 12,
+                "demo_workers": 1,
+                "horizon": 4,
+                "history": 2,
+                "hidden": 16,
+                "cond_dim": 16,
+                "depth": 1,
+                "pretrain_steps": 4,
+                "batch_size": 8,
+                "num_candidates": 2,
+                "num_inference_steps": 2,
+                "sampler": "ddim",
+                "dagger_rounds": 1,
+                "dagger_batches": 1,
+                "dagger_inference_steps": 2,
+                "dagger_steps": 3,
+                **proposer,
+            },
+        }
+    )
 
 
 def test_built_once_then_reused_with_acting_values_applied(tmp_path):
@@ -54,10 +73,12 @@ def test_built_once_then_reused_with_acting_values_applied(tmp_path):
     assert not torch.equal(before.state_loc, torch.zeros_like(before.state_loc))
     assert (first.folder / "dagger1" / "metadata.json").exists()
     # the DAgger round runs on new scenes: its first observations are not the expert's
-    demos, visited = (load_demonstrations(first.folder / name)[:] for name in
-                      ("demonstrations", "dagger1"))  # fmt: skip
-    assert not torch.allclose(demos["observation"][demos["step"] == 0],
-                              visited["observation"][visited["step"] == 0])  # fmt: skip
+    demos, visited = (
+        load_demonstrations(first.folder / name)[:] for name in ("demonstrations", "dagger1")
+    )
+    assert not torch.allclose(
+        demos["observation"][demos["step"] == 0], visited["observation"][visited["step"] == 0]
+    )
     # other acting values: the same artefact, the values applied to the loaded proposer
     again = first_stage_from_config(_cfg(tmp_path, num_candidates=7, sampler="ddpm", compile=True))
     assert not again.built and again.folder == first.folder
@@ -91,8 +112,9 @@ def test_a_proposer_path_of_another_shape_is_refused_naming_the_key(tmp_path):
     bare = tmp_path / "bare" / "proposer.pt"
     bare.parent.mkdir()
     bare.write_bytes((built.folder / "proposer.pt").read_bytes())
-    ok = first_stage_from_config(_cfg(tmp_path / "x", path=str(bare), sampler="ddpm",
-                                      num_inference_steps=3))  # fmt: skip
+    ok = first_stage_from_config(
+        _cfg(tmp_path / "x", path=str(bare), sampler="ddpm", num_inference_steps=3)
+    )
     assert (ok.proposer.sampler, ok.proposer.num_inference_steps) == ("ddpm", 3)
     with pytest.raises(ValueError, match=r"proposer\.horizon is 6"):
         first_stage_from_config(_cfg(tmp_path / "x", path=str(bare), horizon=6))
@@ -101,11 +123,18 @@ def test_a_proposer_path_of_another_shape_is_refused_naming_the_key(tmp_path):
 
 
 def test_values_name_sea_controller_rate_and_seed():
-    cfg = {"seed": 3, "env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
-           "proposer": {"demo_sea_state": "es", "lr": 5e-4}}  # fmt: skip
+    cfg = {
+        "seed": 3,
+        "env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
+        "proposer": {"demo_sea_state": "es", "lr": 5e-4},
+    }
     values = first_stage_values(cfg)
     assert (values["sea_state"], values["controller"], values["rate_model"], values["seed"]) == (
-        "es", "pid", "paper", 3)  # fmt: skip
+        "es",
+        "pid",
+        "paper",
+        3,
+    )
     assert values["pretraining"]["lr"] == 5e-4
     assert "num_candidates" not in json.dumps(values)  # acting values are not part of the key
 
@@ -131,8 +160,12 @@ def test_paper_presets_run_dagger_only_in_a_current(recipe):
 
     folder = Path(__file__).resolve().parents[2] / "recipes" / recipe
     with initialize_config_dir(config_dir=str(folder), version_base=None):
-        rounds = {sea: first_stage_values(compose("paper", [f"env.sea_state={sea}"]))
-                  ["dagger"]["dagger_rounds"] for sea in ("ideal", "es", "ves")}  # fmt: skip
+        rounds = {
+            sea: first_stage_values(compose("paper", [f"env.sea_state={sea}"]))["dagger"][
+                "dagger_rounds"
+            ]
+            for sea in ("ideal", "es", "ves")
+        }
         assert rounds == {"ideal": 0, "es": 1, "ves": 1}
         with pytest.raises(ValueError, match=r"env\.sea_state must be one of"):
             resolve_config(compose("paper", ["env.sea_state=calm"]))
@@ -168,8 +201,9 @@ def test_a_build_cut_short_goes_on_to_the_artefact_an_uninterrupted_build_writes
 
     monkeypatch.setattr(build, "collect_demonstration_batches", counted)
     pretrain = build.pretrain_proposer
-    monkeypatch.setattr(build, "pretrain_proposer", lambda *a, **k: calls.append("fit") or
-                        pretrain(*a, **k))  # fmt: skip
+    monkeypatch.setattr(
+        build, "pretrain_proposer", lambda *a, **k: calls.append("fit") or pretrain(*a, **k)
+    )
     cut_short = True
     with pytest.raises(KeyboardInterrupt):
         built(tmp_path / "cut")
@@ -181,17 +215,26 @@ def test_a_build_cut_short_goes_on_to_the_artefact_an_uninterrupted_build_writes
     assert resumed.built and calls == ["dagger", "fit"]
     assert not list((tmp_path / "cut").glob(".*.partial-*"))
     assert sorted(p.name for p in resumed.folder.iterdir()) == sorted(
-        p.name for p in whole.folder.iterdir())  # fmt: skip
+        p.name for p in whole.folder.iterdir()
+    )
     for name in ("proposer.pt", "proposer_bc.pt"):
-        one, other = (DiffusionProposer.load(f / name).state_dict() for f in
-                      (whole.folder, resumed.folder))  # fmt: skip
+        one, other = (
+            DiffusionProposer.load(f / name).state_dict() for f in (whole.folder, resumed.folder)
+        )
         assert one.keys() == other.keys()
         for key in one:
             torch.testing.assert_close(one[key], other[key], rtol=0, atol=0, msg=key)
     assert (whole.folder / "pretrain_loss.csv").read_text() == (
-        resumed.folder / "pretrain_loss.csv").read_text()  # fmt: skip
-    keep = ("samples", "overridden_samples", "dagger1_samples", "training_samples",
-            "pretraining_heldout_loss", "dagger1_heldout_loss", "heldout_loss")  # fmt: skip
-    metrics = [json.loads((f / "metrics.json").read_text()) for f in (whole.folder,
-                                                                       resumed.folder)]  # fmt: skip
+        resumed.folder / "pretrain_loss.csv"
+    ).read_text()
+    keep = (
+        "samples",
+        "overridden_samples",
+        "dagger1_samples",
+        "training_samples",
+        "pretraining_heldout_loss",
+        "dagger1_heldout_loss",
+        "heldout_loss",
+    )
+    metrics = [json.loads((f / "metrics.json").read_text()) for f in (whole.folder, resumed.folder)]
     assert {k: metrics[0][k] for k in keep} == {k: metrics[1][k] for k in keep}

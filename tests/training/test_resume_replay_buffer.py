@@ -14,9 +14,13 @@ from torchrl_auv.training.run import Progress, prepare_resume
 
 
 def _cfg(run_dir, *, keep_buffer: bool, resume: bool):
-    return OmegaConf.create({"resume": str(run_dir) if resume else None,
-                             "checkpoint": {"replay_buffer": keep_buffer, "keep_last": 2},
-                             "collector": {"total_frames": 100}})  # fmt: skip
+    return OmegaConf.create(
+        {
+            "resume": str(run_dir) if resume else None,
+            "checkpoint": {"replay_buffer": keep_buffer, "keep_last": 2},
+            "collector": {"total_frames": 100},
+        }
+    )
 
 
 def _save_a_run(run_dir, keep_buffer: bool) -> TensorDict:
@@ -24,9 +28,13 @@ def _save_a_run(run_dir, keep_buffer: bool) -> TensorDict:
     buffer = make_replay_buffer(100, batch_size=4)
     buffer.extend(frames)
     progress = Progress()
-    checkpoint, rotation, _ = prepare_resume(_cfg(run_dir, keep_buffer=keep_buffer, resume=False),
-                                             run_dir, {"net": torch.nn.Linear(3, 1)}, progress,
-                                             buffer)  # fmt: skip
+    checkpoint, rotation, _ = prepare_resume(
+        _cfg(run_dir, keep_buffer=keep_buffer, resume=False),
+        run_dir,
+        {"net": torch.nn.Linear(3, 1)},
+        progress,
+        buffer,
+    )
     progress.frames = 30
     rotation.save(checkpoint, step=30)
     return frames
@@ -35,8 +43,13 @@ def _save_a_run(run_dir, keep_buffer: bool) -> TensorDict:
 def _resume(run_dir, keep_buffer: bool):
     buffer = make_replay_buffer(100, batch_size=4)
     progress = Progress()
-    *_, remaining = prepare_resume(_cfg(run_dir, keep_buffer=keep_buffer, resume=True), run_dir,
-                                   {"net": torch.nn.Linear(3, 1)}, progress, buffer)  # fmt: skip
+    *_, remaining = prepare_resume(
+        _cfg(run_dir, keep_buffer=keep_buffer, resume=True),
+        run_dir,
+        {"net": torch.nn.Linear(3, 1)},
+        progress,
+        buffer,
+    )
     return buffer, remaining
 
 

@@ -10,12 +10,18 @@ from torchrl_auv import training
 
 
 def _cfg(run_dir, resume=None):
-    return OmegaConf.create({
-        "seed": 0, "threads": 1, "device": "cpu", "run_dir": str(run_dir), "resume": resume,
-        "logger": {"backend": None, "exp_name": "t", "project": "p", "offline": True},
-        "checkpoint": {"keep_last": 2, "every_frames": 10},
-        "collector": {"total_frames": 100},
-    })  # fmt: skip
+    return OmegaConf.create(
+        {
+            "seed": 0,
+            "threads": 1,
+            "device": "cpu",
+            "run_dir": str(run_dir),
+            "resume": resume,
+            "logger": {"backend": None, "exp_name": "t", "project": "p", "offline": True},
+            "checkpoint": {"keep_last": 2, "every_frames": 10},
+            "collector": {"total_frames": 100},
+        }
+    )
 
 
 def test_a_resumed_run_continues_from_its_counters_and_weights(tmp_path):

@@ -14,40 +14,49 @@ from torchrl_auv.objectives import LyapunovSpec
 
 @pytest.mark.parametrize(
     ("cfg", "named"),
-    [({"env": {"sea_state": "calm"}}, "env.sea_state"),
-     ({"env": {"controller": "lqr"}}, "env.controller"),
-     ({"env": {"rate_model": "fast"}}, "env.rate_model"),
-     ({"collector": {"backend": "slurm"}}, "collector.backend"),
-     ({"collector": {"total_frames": 0}}, "collector.total_frames"),
-     ({"collector": {"num_workers": 0}}, "collector.num_workers"),
-     ({"advisor": {"backend": "oracle"}}, "advisor.backend"),
-     ({"advisor": {"form": "cubic"}}, "advisor.form"),
-     ({"replay_buffer": {"storage": "disk"}}, "replay_buffer.storage"),
-     ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states"),
-     ({"proposer": {"alone_replan_every": 0}}, "proposer.alone_replan_every"),
-     ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every"),
-     ({"selection": {"include_actor": "yes"}}, "selection.include_actor"),
-     ({"optim": {"loss_function": "l1"}}, "optim.loss_function"),
-     ({"lyapunov": {"cost": "energy"}}, "lyapunov.cost"),
-     ({"logger": {"backend": "wandbb"}}, "logger.backend"),
-     ({"optim": {"updates_per_batch": 0}}, "optim.updates_per_batch"),
-     ({"network": {"critics": 0}}, "network.critics"),
-     ({"network": {"layer_norm": "yes"}}, "network.layer_norm")],
-)  # fmt: skip
+    [
+        ({"env": {"sea_state": "calm"}}, "env.sea_state"),
+        ({"env": {"controller": "lqr"}}, "env.controller"),
+        ({"env": {"rate_model": "fast"}}, "env.rate_model"),
+        ({"collector": {"backend": "slurm"}}, "collector.backend"),
+        ({"collector": {"total_frames": 0}}, "collector.total_frames"),
+        ({"collector": {"num_workers": 0}}, "collector.num_workers"),
+        ({"advisor": {"backend": "oracle"}}, "advisor.backend"),
+        ({"advisor": {"form": "cubic"}}, "advisor.form"),
+        ({"replay_buffer": {"storage": "disk"}}, "replay_buffer.storage"),
+        ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states"),
+        ({"proposer": {"alone_replan_every": 0}}, "proposer.alone_replan_every"),
+        ({"proposer": {"alone_replan_every": 9, "horizon": 8}}, "proposer.alone_replan_every"),
+        ({"selection": {"include_actor": "yes"}}, "selection.include_actor"),
+        ({"optim": {"loss_function": "l1"}}, "optim.loss_function"),
+        ({"lyapunov": {"cost": "energy"}}, "lyapunov.cost"),
+        ({"logger": {"backend": "wandbb"}}, "logger.backend"),
+        ({"optim": {"updates_per_batch": 0}}, "optim.updates_per_batch"),
+        ({"network": {"critics": 0}}, "network.critics"),
+        ({"network": {"layer_norm": "yes"}}, "network.layer_norm"),
+    ],
+)
 def test_check_choices_names_the_key(cfg, named):
     with pytest.raises(ValueError, match=named.replace(".", r"\.")):
         training.check_choices(cfg)
 
 
 def test_check_choices_accepts_the_recipe_defaults():
-    training.check_choices({"env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
-                            "collector": {"total_frames": 10, "num_workers": 2,
-                                          "backend": "local"}, "device": "cpu"})  # fmt: skip
+    training.check_choices(
+        {
+            "env": {"sea_state": "ves", "controller": "pid", "rate_model": "paper"},
+            "collector": {"total_frames": 10, "num_workers": 2, "backend": "local"},
+            "device": "cpu",
+        }
+    )
 
 
 def test_a_run_shorter_than_its_random_warm_up_is_said_before_it_starts():
-    with pytest.warns(UserWarning, match=r"collector\.total_frames \(200\) <= "
-                      r"collector\.init_random_frames \(400\).*no gradient update"):  # fmt: skip
+    with pytest.warns(
+        UserWarning,
+        match=r"collector\.total_frames \(200\) <= "
+        r"collector\.init_random_frames \(400\).*no gradient update",
+    ):
         training.check_choices({"collector": {"total_frames": 200, "init_random_frames": 400}})
 
 
@@ -87,9 +96,11 @@ def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
     fresh_loss = Loss()
     fresh = AdvisorTrigger(RuleBasedAdvisor(), "task", log_path=tmp_path / "b.jsonl")
     fresh_progress = {"frames": 0}
-    ckpt2, _ = training.make_checkpoint(tmp_path, modules={"spec": training.SpecState(fresh_loss),
-                                                           "advisor": fresh},
-                                        progress=fresh_progress)  # fmt: skip
+    ckpt2, _ = training.make_checkpoint(
+        tmp_path,
+        modules={"spec": training.SpecState(fresh_loss), "advisor": fresh},
+        progress=fresh_progress,
+    )
     assert training.resume_latest(tmp_path, ckpt2, fresh_progress)[0] == 400
     assert (fresh_loss.spec.form, fresh_loss.spec.alpha) == ("log", 0.05)
     # the cooldown runs on from the restored consultation frame: no "start" consultation
@@ -103,16 +114,18 @@ def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
     proposer = DiffusionProposer.for_env(env, num_candidates=2, horizon=2, num_inference_steps=2)
     critic = training.make_lyapunov_critic(env, (8,))
     loss = training.make_lac_loss(training.make_actor(env, (8,)), critic, env)
-    policy = training.make_selection_policy(proposer, critic, mode="lyapunov", loss=loss,
-                                             critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
+    policy = training.make_selection_policy(
+        proposer, critic, mode="lyapunov", loss=loss, critic_out_key=training.LYAPUNOV_RAW
+    )
     selector = policy[-1]
     assert selector.spec == loss.spec
     loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))  # an advisor's step
     assert (selector.spec.form, selector.spec.alpha) == ("squared", 0.25)
     assert selector.spec_code[0] != 0  # the buffer the workers receive with the weights
     progress = {"frames": 0}
-    ckpt, rotation = training.make_checkpoint(tmp_path, modules={"spec": training.SpecState(loss)},
-                                              progress=progress)  # fmt: skip
+    ckpt, rotation = training.make_checkpoint(
+        tmp_path, modules={"spec": training.SpecState(loss)}, progress=progress
+    )
     rotation.save(ckpt, step=0)
     loss.set_lyapunov_spec(LyapunovSpec(form="log", alpha=0.5))
     training.resume_latest(tmp_path, ckpt, progress)
@@ -120,14 +133,17 @@ def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
     with pytest.raises(ValueError, match="spec must be a LyapunovSpec"):
         loss.spec = "squared"
     with pytest.raises(ValueError, match="needs mode='lyapunov'"):
-        training.make_selection_policy(proposer, critic, mode="q", loss=loss,
-                                        critic_out_key=training.LYAPUNOV_RAW)  # fmt: skip
+        training.make_selection_policy(
+            proposer, critic, mode="q", loss=loss, critic_out_key=training.LYAPUNOV_RAW
+        )
 
 
 def test_feedback_batch_puts_time_second_last_per_auv():
     obs = torch.arange(2 * 5 * 3 * 37, dtype=torch.float32).reshape(2, 5, 3, 37)
-    data = TensorDict({("agents", "observation"): obs,
-                       ("next", "agents", "reward"): torch.zeros(2, 5, 3, 1)}, [2, 5])  # fmt: skip
+    data = TensorDict(
+        {("agents", "observation"): obs, ("next", "agents", "reward"): torch.zeros(2, 5, 3, 1)},
+        [2, 5],
+    )
     fb = training.feedback_batch(data)
     assert fb["observation"].shape == (2, 3, 5, 37) and fb.batch_size == (2, 3, 5)
     torch.testing.assert_close(fb["observation"][1, 2, 4], obs[1, 4, 2])
@@ -141,9 +157,14 @@ def test_ranked_candidates_and_the_live_lyapunov_critic():
     actor = training.make_actor(env, (16,))
     critic = training.make_lyapunov_critic(env, (16,))
     loss = training.make_lac_loss(actor, critic, env)
-    policy = training.make_selection_policy(proposer, critic, mode="lyapunov", actor=actor,
-                                             critic_out_key=training.LYAPUNOV_RAW,
-                                             loss=loss)  # fmt: skip
+    policy = training.make_selection_policy(
+        proposer,
+        critic,
+        mode="lyapunov",
+        actor=actor,
+        critic_out_key=training.LYAPUNOV_RAW,
+        loss=loss,
+    )
     td = policy(env.reset())
     scores, ranking = td["agents", "selector", "scores"], td["agents", "selector", "ranking"]
     assert scores.shape[-1] == 4  # K = 3 candidates and the actor's own action
@@ -153,8 +174,10 @@ def test_ranked_candidates_and_the_live_lyapunov_critic():
     for rank in (0, 3):
         torch.manual_seed(1)
         out = training.RankedCandidate(policy, rank)(env.reset())
-        first = torch.cat([out["agents", "proposer", "first_actions"],
-                           out[training.ACTOR_ACTION].unsqueeze(-2)], -2)  # fmt: skip
+        first = torch.cat(
+            [out["agents", "proposer", "first_actions"], out[training.ACTOR_ACTION].unsqueeze(-2)],
+            -2,
+        )
         index = out["agents", "selector", "ranking"][..., rank]
         chosen = first.gather(-2, index[..., None, None].expand(2, 2, 1, 3))[..., 0, :]
         torch.testing.assert_close(out["agents", "action"], chosen)
@@ -177,9 +200,13 @@ def test_without_the_actor_the_selection_set_is_the_k_candidates():
     critic = training.make_lyapunov_critic(env, (16,))
     loss = training.make_lac_loss(actor, critic, env)
     policy = training.make_selection_policy(
-        proposer, critic, mode="lyapunov", actor=None, critic_out_key=training.LYAPUNOV_RAW,
+        proposer,
+        critic,
+        mode="lyapunov",
+        actor=None,
+        critic_out_key=training.LYAPUNOV_RAW,
         loss=loss,
-    )  # fmt: skip
+    )
     td = policy(env.reset())
     assert td["agents", "selector", "scores"].shape[-1] == 3
     assert training.ACTOR_ACTION not in td.keys(True, True)
@@ -192,8 +219,10 @@ def test_without_the_actor_the_selection_set_is_the_k_candidates():
 def test_batch_metrics_log_the_share_of_each_selection_slot():
     index = torch.tensor([[[0, 3], [3, 3]], [[1, 3], [0, 2]]])  # [B=2, T=2, N=2], slots 0..3
     selector = {"index": index, "scores": torch.zeros(2, 2, 2, 4)}
-    step = {"agents": {"cost": torch.ones(2, 2, 2, 1)},
-            "done": torch.zeros(2, 2, 1, dtype=torch.bool)}  # fmt: skip
+    step = {
+        "agents": {"cost": torch.ones(2, 2, 2, 1)},
+        "done": torch.zeros(2, 2, 1, dtype=torch.bool),
+    }
     data = TensorDict({"agents": {"selector": selector}, "next": step}, [2, 2])
     out = training.batch_metrics(data)
     shares = [out[f"train/selected_rank_{i}"] for i in range(4)]
@@ -209,8 +238,9 @@ def test_batch_metrics_log_which_side_of_the_candidates_the_executed_action_lies
     first = torch.tensor([[0.0, 1.0], [0.5, 2.0], [-0.5, 3.0]]).expand(2, 2, 3, 2)
     executed = torch.tensor([[[0.5, 3.0], [0.5, 3.0]], [[-0.5, 3.0], [0.0, 3.0]]])
     step = {"agents": {"cost": torch.ones(2, 2, 1)}, "done": torch.zeros(2, 1, dtype=torch.bool)}
-    data = TensorDict({"agents": {"proposer": {"first_actions": first}, "action": executed},
-                       "next": step}, [2])  # fmt: skip
+    data = TensorDict(
+        {"agents": {"proposer": {"first_actions": first}, "action": executed}, "next": step}, [2]
+    )
     out = training.batch_metrics(data)
     assert out["train/selected_side_0"] == (1 + 1 - 1 + 0) / 4
     assert out["train/selected_side_1"] == 1.0
@@ -219,11 +249,20 @@ def test_batch_metrics_log_which_side_of_the_candidates_the_executed_action_lies
     gen = torch.Generator().manual_seed(0)
     first = torch.randn(4000, 2, 5, 3, generator=gen)
     pick = torch.randint(0, 5, (4000, 2, 1, 1), generator=gen).expand(4000, 2, 1, 3)
-    step = {"agents": {"cost": torch.ones(4000, 2, 1)},
-            "done": torch.zeros(4000, 1, dtype=torch.bool)}  # fmt: skip
-    data = TensorDict({"agents": {"proposer": {"first_actions": first},
-                                  "action": first.gather(-2, pick).squeeze(-2)},
-                       "next": step}, [4000])  # fmt: skip
+    step = {
+        "agents": {"cost": torch.ones(4000, 2, 1)},
+        "done": torch.zeros(4000, 1, dtype=torch.bool),
+    }
+    data = TensorDict(
+        {
+            "agents": {
+                "proposer": {"first_actions": first},
+                "action": first.gather(-2, pick).squeeze(-2),
+            },
+            "next": step,
+        },
+        [4000],
+    )
     out = training.batch_metrics(data)
     sides = [out[f"train/selected_side_{d}"] for d in range(3)]
     assert all(abs(side) < 0.03 for side in sides), sides
@@ -240,8 +279,9 @@ def test_evaluation_rows_repeat_on_the_same_seed_whatever_the_global_rng():
     rows = []
     for noise in (0, 1):
         torch.manual_seed(noise)  # a different global state before each evaluation
-        rows.append(training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=5,
-                                      steps=15))  # fmt: skip
+        rows.append(
+            training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=5, steps=15)
+        )
     assert rows[0] == rows[1]
     other = training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=6, steps=15)
     assert other[0]["cost_mean"] != rows[0][0]["cost_mean"]
@@ -251,8 +291,14 @@ def test_evaluation_shows_its_progress_per_decision(capsys):
     def make(sea, seed):
         return training.make_env(sea, seed=seed, num_envs=1, max_steps=6)
 
-    training.evaluate(make, {"random": lambda env: None, "expert": training.reference_policies()[
-        "expert"]}, ["ideal"], seed=5, steps=6, progress=True)  # fmt: skip
+    training.evaluate(
+        make,
+        {"random": lambda env: None, "expert": training.reference_policies()["expert"]},
+        ["ideal"],
+        seed=5,
+        steps=6,
+        progress=True,
+    )
     err = capsys.readouterr().err
     assert "12/12" in err and "ideal expert" in err
     training.evaluate(make, {"random": lambda env: None}, ["ideal"], seed=5, steps=6)
@@ -267,8 +313,13 @@ def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
     from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES
     from torchrl_auv.modules import DiffusionProposer
 
-    env_cfg = {"sea_state": "ideal", "num_envs": 1, "controller": "pid", "rate_model": "shannon",
-               "max_steps": 10}  # fmt: skip
+    env_cfg = {
+        "sea_state": "ideal",
+        "num_envs": 1,
+        "controller": "pid",
+        "rate_model": "shannon",
+        "max_steps": 10,
+    }
     cfg = OmegaConf.create({"seed": 0, "device": "cpu", "env": env_cfg})
     assert training.env_from_config(cfg).vehicles.compile is False
     cfg.env.compile_physics = True
@@ -282,10 +333,21 @@ def test_compile_switches_reach_the_env_and_the_proposer(tmp_path):
     path = tmp_path / "proposer.pt"
     obs = len(AGENT_OBSERVATION_FEATURES)  # history 0: the observation alone
     DiffusionProposer(obs, 3, num_candidates=2, horizon=2, num_inference_steps=2).save(path)
-    proposer_cfg = {"path": str(path), "demo_episodes": 1, "demo_steps": 1, "pretrain_steps": 1,
-                    "batch_size": 1, "lr": 1e-3, "num_candidates": 2, "horizon": 2, "history": 0,
-                    "num_inference_steps": 2, "sampler": "ddim", "hidden": 8,
-                    "demo_sea_state": "ideal"}  # fmt: skip
+    proposer_cfg = {
+        "path": str(path),
+        "demo_episodes": 1,
+        "demo_steps": 1,
+        "pretrain_steps": 1,
+        "batch_size": 1,
+        "lr": 1e-3,
+        "num_candidates": 2,
+        "horizon": 2,
+        "history": 0,
+        "num_inference_steps": 2,
+        "sampler": "ddim",
+        "hidden": 8,
+        "demo_sea_state": "ideal",
+    }
     cfg.proposer = proposer_cfg
     assert training.proposer_from_config(cfg).compile is False
     cfg.proposer.compile = True
@@ -364,8 +426,11 @@ def test_an_unreachable_advisor_endpoint_is_refused_before_any_work():
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     cfg = {"advisor": {"backend": "openai", "base_url": f"http://127.0.0.1:{port}/v1"}}
-    with pytest.raises(ValueError, match=rf"advisor\.base_url http://127\.0\.0\.1:{port}/v1 "
-                       r"does not answer.*advisor\.backend=rules"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=rf"advisor\.base_url http://127\.0\.0\.1:{port}/v1 "
+        r"does not answer.*advisor\.backend=rules",
+    ):
         training.check_config(cfg)
     # a real HTTP server answers (a 404 for /models still proves the endpoint is there)
     server = http.server.HTTPServer(("127.0.0.1", 0), http.server.BaseHTTPRequestHandler)

@@ -96,8 +96,13 @@ class FixedAdvisor:
     ) -> AdvisorDecision:
         # accepted: keeping the spec is this advisor's answer, not a failure
         fixed = "the spec is fixed for this run"
-        return AdvisorDecision(form=current.form, prior=current.prior, alpha=current.alpha,
-                               source="fixed", reasons=(fixed,))  # fmt: skip
+        return AdvisorDecision(
+            form=current.form,
+            prior=current.prior,
+            alpha=current.alpha,
+            source="fixed",
+            reasons=(fixed,),
+        )
 
 
 def validate_answer(
@@ -118,9 +123,11 @@ def validate_answer(
     form = answer.get("form")
     if form not in FORMS:
         return AdvisorDecision.keep(
-            current, source, f"unknown form {str(form)[:40]!r} (expected one of {sorted(FORMS)})",
+            current,
+            source,
+            f"unknown form {str(form)[:40]!r} (expected one of {sorted(FORMS)})",
             raw=raw,
-        )  # fmt: skip
+        )
     reasons: list[str] = []
     prior = answer.get("prior")
     if prior in ("", "none", "None", "null"):
@@ -136,13 +143,22 @@ def validate_answer(
             alpha = None
     if isinstance(alpha, bool) or not isinstance(alpha, int | float) or not math.isfinite(alpha):
         return AdvisorDecision.keep(
-            current, source, f"alpha {str(answer.get('alpha'))[:40]!r} is not a finite number",
+            current,
+            source,
+            f"alpha {str(answer.get('alpha'))[:40]!r} is not a finite number",
             raw=raw,
-        )  # fmt: skip
+        )
     low, high = ALPHA_RANGE
     if not low <= alpha <= high:
         reasons.append(f"alpha {alpha:g} snapped into [{low:g}, {high:g}]")
         alpha = min(max(float(alpha), low), high)
     rationale = str(answer.get("rationale", ""))[:1000]
-    return AdvisorDecision(form=form, prior=prior, alpha=float(alpha), rationale=rationale,
-                           source=source, reasons=tuple(reasons), raw=raw)  # fmt: skip
+    return AdvisorDecision(
+        form=form,
+        prior=prior,
+        alpha=float(alpha),
+        rationale=rationale,
+        source=source,
+        reasons=tuple(reasons),
+        raw=raw,
+    )

@@ -136,8 +136,10 @@ def feedback_from_training(
         if batches[0].get(key, None) is None:
             raise ValueError(f"{name} {key!r} is not in the collected batches")
     size = batches[0].get(observation_key).shape[-1]
-    for name, index in (("position_indices", position_indices),
-                        ("velocity_indices", velocity_indices)):  # fmt: skip
+    for name, index in (
+        ("position_indices", position_indices),
+        ("velocity_indices", velocity_indices),
+    ):
         if any(not -size <= i < size for i in index):
             raise ValueError(f"{name} {list(index)} out of range for observations of size {size}")
     outputs = list(loss_outputs)

@@ -45,8 +45,13 @@ def smollm2_model_path() -> Path:
     return files[0]
 
 
-def server_command(model_path: str | Path | None = None, *, host: str = "127.0.0.1",
-                   port: int = 8080, n_ctx: int = 2048) -> list[str]:  # fmt: skip
+def server_command(
+    model_path: str | Path | None = None,
+    *,
+    host: str = "127.0.0.1",
+    port: int = 8080,
+    n_ctx: int = 2048,
+) -> list[str]:
     """The ``llama_cpp.server`` command line serving ``model_path`` (default: SmolLM2)."""
     if importlib.util.find_spec("llama_cpp") is None:
         raise ImportError("the local server needs the 'local-llm' extra: llama-cpp-python[server]")

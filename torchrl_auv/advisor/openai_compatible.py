@@ -95,8 +95,10 @@ class OpenAICompatibleAdvisor:
         self.strategies = list(STRATEGIES)
 
     def __repr__(self) -> str:  # no key in here: it is never stored
-        return (f"{type(self).__name__}(base_url={self.base_url!r}, model={self.model!r}, "
-                f"api_key_env={self.api_key_env!r})")  # fmt: skip
+        return (
+            f"{type(self).__name__}(base_url={self.base_url!r}, model={self.model!r}, "
+            f"api_key_env={self.api_key_env!r})"
+        )
 
     def _client(self):
         try:
@@ -105,8 +107,9 @@ class OpenAICompatibleAdvisor:
             raise ImportError("OpenAICompatibleAdvisor needs the 'llm' extra: openai") from err
         key = os.environ.get(self.api_key_env) or "not-needed"
         # retries are ours (within the consultation's deadline), not the client's
-        return openai.OpenAI(base_url=self.base_url, api_key=key, timeout=self.timeout,
-                             max_retries=0)  # fmt: skip
+        return openai.OpenAI(
+            base_url=self.base_url, api_key=key, timeout=self.timeout, max_retries=0
+        )
 
     def _request(self, client, strategy: str, messages) -> str:
         """One chat completion with ``strategy``; returns the text holding the JSON answer."""
@@ -121,16 +124,27 @@ class OpenAICompatibleAdvisor:
                 },
             }
         elif strategy == "tool":
-            extra["tools"] = [{"type": "function", "function": {
-                "name": _TOOL, "description": "Set the Lyapunov function for training.",
-                "parameters": DECISION_SCHEMA}}]  # fmt: skip
+            extra["tools"] = [
+                {
+                    "type": "function",
+                    "function": {
+                        "name": _TOOL,
+                        "description": "Set the Lyapunov function for training.",
+                        "parameters": DECISION_SCHEMA,
+                    },
+                }
+            ]
             extra["tool_choice"] = {"type": "function", "function": {"name": _TOOL}}
         elif strategy == "json_object":
             extra["response_format"] = {"type": "json_object", "schema": DECISION_SCHEMA}
         response = client.chat.completions.create(
-            model=self.model, messages=messages, temperature=self.temperature, top_p=self.top_p,
-            max_tokens=self.max_tokens, **extra,
-        )  # fmt: skip
+            model=self.model,
+            messages=messages,
+            temperature=self.temperature,
+            top_p=self.top_p,
+            max_tokens=self.max_tokens,
+            **extra,
+        )
         message = response.choices[0].message
         if strategy == "tool":
             calls = message.tool_calls or []
@@ -158,8 +172,9 @@ class OpenAICompatibleAdvisor:
                 reasons.append(f"timeout after {self.timeout:g} s at {self.base_url} ({strategy})")
                 break
             except openai.APIConnectionError as err:
-                reasons.append(f"connection to {self.base_url} failed ({strategy}): "
-                               f"{type(err).__name__}")  # fmt: skip
+                reasons.append(
+                    f"connection to {self.base_url} failed ({strategy}): {type(err).__name__}"
+                )
                 break
             except openai.APIStatusError as err:
                 reasons.append(f"HTTP {err.status_code} for {strategy}: {_short(err.message)}")

@@ -77,9 +77,13 @@ class RuleBasedAdvisor:
 
     source = "rules"
 
-    def __init__(self, *, violation_high: float = VIOLATION_HIGH,
-                 oscillation_high: float = OSCILLATION_HIGH,
-                 worsening: float = WORSENING) -> None:  # fmt: skip
+    def __init__(
+        self,
+        *,
+        violation_high: float = VIOLATION_HIGH,
+        oscillation_high: float = OSCILLATION_HIGH,
+        worsening: float = WORSENING,
+    ) -> None:
         for name, value in (
             ("violation_high", violation_high),
             ("oscillation_high", oscillation_high),
@@ -111,8 +115,9 @@ class RuleBasedAdvisor:
             form, alpha = _shift(form, +1), alpha * 1.5
             velocity = feedback.velocity_oscillation > feedback.position_oscillation
             prior = "velocity" if velocity else "position"
-            why = (f"oscillation {feedback.oscillation_index:.2f} ({prior} dominant): "
-                   "more aggressive")  # fmt: skip
+            why = (
+                f"oscillation {feedback.oscillation_index:.2f} ({prior} dominant): more aggressive"
+            )
         elif feedback.collisions > 0:
             alpha, prior = alpha * 1.5, "position"
             why = f"{feedback.collisions:g} collisions: stronger position stabilisation"

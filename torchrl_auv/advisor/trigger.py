@@ -118,9 +118,17 @@ class AdvisorTrigger:
         self.consultations = int(state.get("consultations", 0))
         self.failures = {str(k): int(v) for k, v in state.get("failures", {}).items()}
         with self.log_path.open("a", encoding="utf-8") as f:  # where a resumed session starts
-            f.write(json.dumps({"time": time.time(), "event": "restored",
-                                "last_consultation_frame": last,
-                                "consultations": self.consultations}) + "\n")  # fmt: skip
+            f.write(
+                json.dumps(
+                    {
+                        "time": time.time(),
+                        "event": "restored",
+                        "last_consultation_frame": last,
+                        "consultations": self.consultations,
+                    }
+                )
+                + "\n"
+            )
 
     def reason(self, frame: int, feedback: TrainingFeedback | None) -> str | None:
         """Why to consult now (``"start"``, a threshold), or ``None``."""
@@ -161,13 +169,17 @@ class AdvisorTrigger:
             loss.set_lyapunov_spec(after)
         record = {
             "time": time.time(),
-            "task": self.task[:500], "frame": frame, "trigger": why,
+            "task": self.task[:500],
+            "frame": frame,
+            "trigger": why,
             "feedback": None if feedback is None else feedback.as_dict(),
             "spec_before": {k: v for k, v in asdict(before).items() if k != "prior_indices"},
-            "raw_answer": decision.raw, "decision": {k: v for k, v in decision.as_dict().items()
-                                                     if k != "raw"},
-            "applied": applied, "reasons": list(decision.reasons), "latency_s": latency,
-        }  # fmt: skip
+            "raw_answer": decision.raw,
+            "decision": {k: v for k, v in decision.as_dict().items() if k != "raw"},
+            "applied": applied,
+            "reasons": list(decision.reasons),
+            "latency_s": latency,
+        }
         self.records.append(record)
         with self.log_path.open("a", encoding="utf-8") as f:
             f.write(json.dumps(record) + "\n")
@@ -201,12 +213,33 @@ class AdvisorTrigger:
         if isinstance(self.logger, WandbLogger):
             import wandb
 
-            columns = ["frame", "trigger", "form", "prior", "alpha", "applied", "source",
-                       "reasons", "latency_s", "rationale"]  # fmt: skip
-            rows = [[r["frame"], r["trigger"], r["decision"]["form"], str(r["decision"]["prior"]),
-                     r["decision"]["alpha"], r["applied"], r["decision"]["source"],
-                     "; ".join(r["reasons"]), r["latency_s"], r["decision"]["rationale"]]
-                    for r in self.records]  # fmt: skip
+            columns = [
+                "frame",
+                "trigger",
+                "form",
+                "prior",
+                "alpha",
+                "applied",
+                "source",
+                "reasons",
+                "latency_s",
+                "rationale",
+            ]
+            rows = [
+                [
+                    r["frame"],
+                    r["trigger"],
+                    r["decision"]["form"],
+                    str(r["decision"]["prior"]),
+                    r["decision"]["alpha"],
+                    r["applied"],
+                    r["decision"]["source"],
+                    "; ".join(r["reasons"]),
+                    r["latency_s"],
+                    r["decision"]["rationale"],
+                ]
+                for r in self.records
+            ]
             self.logger.experiment.log(
                 {"advisor/decisions": wandb.Table(columns=columns, data=rows)}
             )

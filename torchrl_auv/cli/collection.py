@@ -35,13 +35,23 @@ CARD_POLICIES = ("expert", "lazy", "idle", "random", "exit")
 CARD_SEED = 7_000_000
 _RANKED = ("expert", "lazy", "idle", "random")  # each cheaper than the next, beyond its SE
 _INSIDE = ("expert", "lazy", "idle")  # the policies that stay inside the area
-_COLUMNS = (("sdr_mbit", "SDR (Mbit)"), ("ssn", "SSN"), ("ec_w", "EC (W)"),
-            ("violation_rate", "violations"), ("terminated", "ended early"))  # fmt: skip
+_COLUMNS = (
+    ("sdr_mbit", "SDR (Mbit)"),
+    ("ssn", "SSN"),
+    ("ec_w", "EC (W)"),
+    ("violation_rate", "violations"),
+    ("terminated", "ended early"),
+)
 
 
 def _card_env(sea_state: str, seed: int, *, scenes: int, rate_model: str, compile_physics: bool):
-    return DataCollectionEnv(batch_size=[scenes], sea_state=sea_state, rate_model=rate_model,
-                             seed=seed, compile_physics=compile_physics)  # fmt: skip
+    return DataCollectionEnv(
+        batch_size=[scenes],
+        sea_state=sea_state,
+        rate_model=rate_model,
+        seed=seed,
+        compile_physics=compile_physics,
+    )
 
 
 def _policy(name: str, env: DataCollectionEnv):
@@ -63,13 +73,14 @@ def main(argv: Sequence[str] | None = None) -> list[dict]:
     torch.set_num_threads(1)
     rows = []
     for rate_model in args.rate_models:
-        make_env = functools.partial(_card_env, scenes=args.scenes, rate_model=rate_model,
-                                     compile_physics=args.compile)  # fmt: skip
+        make_env = functools.partial(
+            _card_env, scenes=args.scenes, rate_model=rate_model, compile_physics=args.compile
+        )
         builders = {name: functools.partial(_policy, name) for name in args.policies}
-        found = evaluate(make_env, builders, args.presets, seed=args.seed, steps=args.steps,
-                         workers=args.workers)  # fmt: skip
-        rows += [{"preset": row.pop("sea_state"), "rate_model": rate_model, **row}
-                 for row in found]  # fmt: skip
+        found = evaluate(
+            make_env, builders, args.presets, seed=args.seed, steps=args.steps, workers=args.workers
+        )
+        rows += [{"preset": row.pop("sea_state"), "rate_model": rate_model, **row} for row in found]
     print(_all_columns(rows) if args.all_columns else card_table(rows), flush=True)
     for line in card_checks(rows):
         print(line)
@@ -78,15 +89,24 @@ def main(argv: Sequence[str] | None = None) -> list[dict]:
 
 def card_table(rows: Sequence[dict]) -> str:
     """The card as a Markdown table: the mission, safety and the cost ± its standard error."""
-    head = ["sea", "rate", "policy", *(title for _, title in _COLUMNS),
-            "cost / AUV-decision", "discounted 0.99", "discounted 0.97"]  # fmt: skip
+    head = [
+        "sea",
+        "rate",
+        "policy",
+        *(title for _, title in _COLUMNS),
+        "cost / AUV-decision",
+        "discounted 0.99",
+        "discounted 0.97",
+    ]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for row in rows:
         cells = [row["preset"], row["rate_model"], row["policy"]]
         cells += [_fmt(row[key]) for key, _ in _COLUMNS]
-        cells += [f"{_fmt(row[k])} ± {_fmt(row.get(f'{k}_se', math.nan))}"
-                  for k in ("cost_mean", "discounted_cost_0.99", "discounted_cost_0.97")
-                  if k in row]  # fmt: skip
+        cells += [
+            f"{_fmt(row[k])} ± {_fmt(row.get(f'{k}_se', math.nan))}"
+            for k in ("cost_mean", "discounted_cost_0.99", "discounted_cost_0.97")
+            if k in row
+        ]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -35,14 +35,22 @@ def main(argv: Sequence[str] | None = None) -> list[dict]:
     for sea in args.sea_states:
         options = {"env": "data_collection", "max_steps": args.steps, "sea_state": sea}
         train = collect_demonstrations(episodes=args.scenes, seed=args.seed, **options)
-        heldout = collect_demonstrations(episodes=args.heldout_scenes, seed=args.heldout_seed,
-                                         **options)  # fmt: skip
+        heldout = collect_demonstrations(
+            episodes=args.heldout_scenes, seed=args.heldout_seed, **options
+        )
         for inputs in args.inputs:
             r2 = explained_variance(train, heldout, inputs=inputs, steps=args.fit_steps)
             samples = int((~train["overridden"]).sum())
             for split in ("train", "heldout"):
-                rows.append({"sea_state": sea, "inputs": inputs, "samples": samples,
-                             "split": split, "r2": r2[split]})  # fmt: skip
+                rows.append(
+                    {
+                        "sea_state": sea,
+                        "inputs": inputs,
+                        "samples": samples,
+                        "split": split,
+                        "r2": r2[split],
+                    }
+                )
                 values = " | ".join(f"{v:.2f}" for v in r2[split])
                 print(f"| {sea} | {inputs} | {samples} | {split} | {values} |", flush=True)
     return rows

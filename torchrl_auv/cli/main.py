@@ -54,8 +54,10 @@ def recipes_dir() -> Path:
     for folder in (package / "recipes", package.parent / "recipes"):
         if (folder / "train.py").is_file():
             return folder
-    raise FileNotFoundError(f"no recipes folder with train.py in {package / 'recipes'} or "
-                            f"{package.parent / 'recipes'}: reinstall torchrl-auv")  # fmt: skip
+    raise FileNotFoundError(
+        f"no recipes folder with train.py in {package / 'recipes'} or "
+        f"{package.parent / 'recipes'}: reinstall torchrl-auv"
+    )
 
 
 def command_line(argv: Sequence[str]) -> list[str]:
@@ -68,8 +70,10 @@ def command_line(argv: Sequence[str]) -> list[str]:
     script = str(recipes_dir() / COMMANDS[command][0])
     if command == "sweep":
         if not rest or "=" in rest[0]:
-            raise ValueError("sweep needs the sweep's name first (a file of recipes/sweeps/, "
-                             "e.g. `torchrl-auv sweep tiny`)")  # fmt: skip
+            raise ValueError(
+                "sweep needs the sweep's name first (a file of recipes/sweeps/, "
+                "e.g. `torchrl-auv sweep tiny`)"
+            )
         name, *rest = rest
         return [script, "-m", f"+sweeps={name}", *rest]
     return [script, *rest]
@@ -78,9 +82,12 @@ def command_line(argv: Sequence[str]) -> list[str]:
 def _usage() -> str:
     lines = ["usage: torchrl-auv COMMAND [ARGS...]", "", "commands:"]
     lines += [f"  {name:<10} {what}" for name, (_, what) in COMMANDS.items()]
-    lines += ["  recipes    print the recipes folder (scripts and Hydra configs)", "",
-              "Each command runs its recipe script with ARGS; `torchrl-auv train --help` shows "
-              "the config."]  # fmt: skip
+    lines += [
+        "  recipes    print the recipes folder (scripts and Hydra configs)",
+        "",
+        "Each command runs its recipe script with ARGS; `torchrl-auv train --help` shows "
+        "the config.",
+    ]
     return "\n".join(lines)
 
 

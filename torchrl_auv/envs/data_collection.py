@@ -446,8 +446,10 @@ class DataCollectionEnv(EnvBase):
     @staticmethod
     def _localisation_init(shape: torch.Size) -> TensorDict:
         """Running sums of the position errors (m) of the filter and of the raw USBL fixes."""
-        zeros = {k: torch.zeros(shape) for k in ("kf_error_sum", "usbl_error_sum", "kf_samples",
-                                                 "usbl_samples")}  # fmt: skip
+        zeros = {
+            k: torch.zeros(shape)
+            for k in ("kf_error_sum", "usbl_error_sum", "kf_samples", "usbl_samples")
+        }
         return TensorDict(zeros, batch_size=shape)
 
     def _metrics(
@@ -504,16 +506,29 @@ class DataCollectionEnv(EnvBase):
         eta_hat, nu_hat = self.vehicles.estimate(state)
         sensors = state["sensors"]
         task_features = iout.task_observation(
-            state["task"], eta_hat[..., :3], self.config, altitude=sensors["altitude"],
-            current=sensors["current"], horizon=self.max_steps,
-        )  # fmt: skip
+            state["task"],
+            eta_hat[..., :3],
+            self.config,
+            altitude=sensors["altitude"],
+            current=sensors["current"],
+            horizon=self.max_steps,
+        )
         sp = state["setpoint"]
         e_sp = sp[..., 1] - eta_hat[..., 5]
         vehicle = torch.stack(
-            (*nu_hat.unbind(-1), eta_hat[..., 3], eta_hat[..., 4], torch.sin(eta_hat[..., 5]),
-             torch.cos(eta_hat[..., 5]), (sp[..., 0] - eta_hat[..., 2]) / 10.0,
-             torch.sin(e_sp), torch.cos(e_sp), sp[..., 2] / 1525.0), -1
-        )  # fmt: skip
+            (
+                *nu_hat.unbind(-1),
+                eta_hat[..., 3],
+                eta_hat[..., 4],
+                torch.sin(eta_hat[..., 5]),
+                torch.cos(eta_hat[..., 5]),
+                (sp[..., 0] - eta_hat[..., 2]) / 10.0,
+                torch.sin(e_sp),
+                torch.cos(e_sp),
+                sp[..., 2] / 1525.0,
+            ),
+            -1,
+        )
         obs = torch.cat([task_features, vehicle], -1).to(torch.float32)
         return torch.nan_to_num(obs, nan=0.0, posinf=0.0, neginf=0.0)
 
@@ -546,18 +561,28 @@ class DataCollectionEnv(EnvBase):
         depth_sp = (sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp_min(0.0)
         depth_sp = torch.where(valid, torch.minimum(depth_sp, floor.clamp_min(0.0)), depth_sp)
         agent = torch.stack(
-            (depth_sp, sp[..., 1] + HEADING_STEP * action[..., 1],
-             RPM_SCALE * (action[..., 2] + 3.0)), -1
-        )  # fmt: skip
+            (
+                depth_sp,
+                sp[..., 1] + HEADING_STEP * action[..., 1],
+                RPM_SCALE * (action[..., 2] + 3.0),
+            ),
+            -1,
+        )
         task = td["task"]
         node = iout.gather_nodes(task["nodes", "position"], task["auvs", "target"])
         altitude = torch.where(valid, sensors["altitude"], torch.nan)
         keeper = torch.stack(
             iout.station_keeping_setpoints(
-                eta_hat[..., :3], eta_hat[..., 5], node.to(eta_hat.dtype), sensors["current"],
-                altitude, self.station_keeping, radius_m=self.config.service_radius_m,
-            ), -1
-        )  # fmt: skip
+                eta_hat[..., :3],
+                eta_hat[..., 5],
+                node.to(eta_hat.dtype),
+                sensors["current"],
+                altitude,
+                self.station_keeping,
+                radius_m=self.config.service_radius_m,
+            ),
+            -1,
+        )
         return torch.where(hovering[..., None], keeper, agent)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -720,8 +745,14 @@ class DataCollectionEnv(EnvBase):
         self._write_costs(out, cost, stability, ending, done)
         return out
 
-    def _write_costs(self, out: TensorDictBase, cost: torch.Tensor, stability: torch.Tensor,
-                     ending: torch.Tensor, done: torch.Tensor) -> None:  # fmt: skip
+    def _write_costs(
+        self,
+        out: TensorDictBase,
+        cost: torch.Tensor,
+        stability: torch.Tensor,
+        ending: torch.Tensor,
+        done: torch.Tensor,
+    ) -> None:
         """The reward keys: summed over the AUVs (flat layout), or per AUV with per-AUV flags:
         the AUV that ends the episode is terminated, the others truncated (they bootstrap:
         their cost-to-go does not end with their peer's exit)."""

@@ -147,9 +147,14 @@ def collect_demonstrations(
         if value < 1:
             raise ValueError(f"{name} must be >= 1, got {value}")
     base = _make_env(
-        env, episodes, max_steps, sea_state=sea_state, controller=controller, seed=seed,
+        env,
+        episodes,
+        max_steps,
+        sea_state=sea_state,
+        controller=controller,
+        seed=seed,
         **env_options,
-    )  # fmt: skip
+    )
     obs_key = getattr(base, "observation_key", "observation")
     act_key = getattr(base, "agent_action_key", "action")
     tenv = TransformedEnv(
@@ -262,9 +267,12 @@ def collect_demonstration_batches(
         from torchrl_auv.envs.processes import end_with_parent
 
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(workers, batches), mp_context=context,
-                                 initializer=end_with_parent,  # a killed build leaves none
-                                 initargs=(os.getpid(),)) as pool:  # fmt: skip
+        with ProcessPoolExecutor(
+            min(workers, batches),
+            mp_context=context,
+            initializer=end_with_parent,  # a killed build leaves none
+            initargs=(os.getpid(),),
+        ) as pool:
             futures = [pool.submit(_collect_batch, b, seed, options) for b in numbers]
             parts = [future.result() for future in futures]
     episodes = 0

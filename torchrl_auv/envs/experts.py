@@ -158,6 +158,10 @@ def setpoint_action(
         obs[..., f["sin_heading_setpoint_offset"]], obs[..., f["cos_heading_setpoint_offset"]]
     )
     return torch.stack(
-        ((depth - depth_sp) / DEPTH_STEP, wrap_angle(heading - heading_sp) / HEADING_STEP,
-         rpm / RPM_SCALE - 3.0), -1
-    ).clamp(-1.0, 1.0)  # fmt: skip
+        (
+            (depth - depth_sp) / DEPTH_STEP,
+            wrap_angle(heading - heading_sp) / HEADING_STEP,
+            rpm / RPM_SCALE - 3.0,
+        ),
+        -1,
+    ).clamp(-1.0, 1.0)

@@ -35,8 +35,9 @@ def end_with_parent(parent: int, every_s: float = 0.5) -> None:
     ``parent``: the pid of the process that made the pool (``os.getpid()`` there, passed in
     ``initargs``), not ``os.getppid()`` read here: that is already the reaper if the parent
     died while this worker was still starting (importing torch takes seconds)."""
-    thread = threading.Thread(target=_exit_with_parent, args=(parent, every_s), daemon=True,
-                              name="end-with-parent")  # fmt: skip
+    thread = threading.Thread(
+        target=_exit_with_parent, args=(parent, every_s), daemon=True, name="end-with-parent"
+    )
     thread.start()
 
 

@@ -26,8 +26,9 @@ _STILL_MPS = 0.1  # below this current estimate the patrol legs run east-west
 def _collection_env(env: EnvBase, name: str) -> DataCollectionEnv:
     base = getattr(env, "base_env", env)
     if not isinstance(base, DataCollectionEnv):
-        raise ValueError(f"env must be a DataCollectionEnv (or wrap one) for {name}, "
-                         f"got {type(base).__name__}")  # fmt: skip
+        raise ValueError(
+            f"env must be a DataCollectionEnv (or wrap one) for {name}, got {type(base).__name__}"
+        )
     return base
 
 
@@ -75,13 +76,17 @@ class IdlePolicy(ScriptedExpert):
         deepest = cfg.seabed_depth_range_m[0] - cfg.service_radius_m
         low, high = (float(v) for v in depths_m)
         if not cfg.clearance_m < low <= high < deepest:
-            raise ValueError(f"depths_m must lie in ({cfg.clearance_m}, {deepest}) m (below the "
-                             f"surface clearance, out of every node's service radius) with "
-                             f"depths_m[0] <= depths_m[1], got {depths_m}")  # fmt: skip
+            raise ValueError(
+                f"depths_m must lie in ({cfg.clearance_m}, {deepest}) m (below the "
+                f"surface clearance, out of every node's service radius) with "
+                f"depths_m[0] <= depths_m[1], got {depths_m}"
+            )
         half = min(cfg.area_m) / 2.0
         if not 0.0 <= lane_spacing_m * (n - 1) / 2 < half:
-            raise ValueError(f"lane_spacing_m must be >= 0 and keep {n} lanes inside the area "
-                             f"(< {2 * half / max(n - 1, 1)} m), got {lane_spacing_m}")  # fmt: skip
+            raise ValueError(
+                f"lane_spacing_m must be >= 0 and keep {n} lanes inside the area "
+                f"(< {2 * half / max(n - 1, 1)} m), got {lane_spacing_m}"
+            )
         if not 0.0 < turn_m < half:
             raise ValueError(f"turn_m must be in (0, {half}) m, got {turn_m}")
         if not 760.0 <= rpm <= 1520.0:

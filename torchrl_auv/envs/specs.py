@@ -64,8 +64,10 @@ def checked_batch_size(batch_size: object) -> torch.Size:
     ok = isinstance(batch_size, (Sequence, torch.Size)) and not isinstance(batch_size, str)
     ok = ok and all(isinstance(d, int) and not isinstance(d, bool) and d >= 1 for d in batch_size)
     if not ok:
-        raise ValueError(f"batch_size must be a list of ints >= 1 (e.g. [4] for 4 scenes, [] for "
-                         f"one), got {batch_size!r}")  # fmt: skip
+        raise ValueError(
+            f"batch_size must be a list of ints >= 1 (e.g. [4] for 4 scenes, [] for "
+            f"one), got {batch_size!r}"
+        )
     return torch.Size(batch_size)
 
 
@@ -82,10 +84,13 @@ def checked_action(action: torch.Tensor, shape: Sequence[int], key: object) -> t
     ValueError: action must have shape [2] (batch and action dims), got [3]
     """
     if tuple(action.shape) != tuple(shape):
-        raise ValueError(f"{key} must have shape {list(shape)} (batch and action dims), "
-                         f"got {list(action.shape)}")  # fmt: skip
+        raise ValueError(
+            f"{key} must have shape {list(shape)} (batch and action dims), got {list(action.shape)}"
+        )
     finite = torch.isfinite(action)
     if not bool(finite.all()):
-        raise ValueError(f"{key} has {int((~finite).sum())} non-finite entries (NaN or inf); "
-                         "actions must be finite, in [-1, 1]")  # fmt: skip
+        raise ValueError(
+            f"{key} has {int((~finite).sum())} non-finite entries (NaN or inf); "
+            "actions must be finite, in [-1, 1]"
+        )
     return action.clamp(-1.0, 1.0)

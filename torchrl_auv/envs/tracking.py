@@ -168,10 +168,12 @@ class AUVTrackingEnv(EnvBase):
         )
         self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*shape, 3), dtype=torch.float32)
         self.done_spec = Composite(
-            {k: Categorical(2, shape=(*shape, 1), dtype=torch.bool)
-             for k in ("done", "terminated", "truncated")},
+            {
+                k: Categorical(2, shape=(*shape, 1), dtype=torch.bool)
+                for k in ("done", "terminated", "truncated")
+            },
             shape=shape,
-        )  # fmt: skip
+        )
         self.reward_spec = Composite(
             reward=Unbounded(shape=(*shape, 1), dtype=torch.float32),
             cost=Unbounded(shape=(*shape, 1), dtype=torch.float32),
@@ -196,8 +198,13 @@ class AUVTrackingEnv(EnvBase):
         actuators = torch.zeros(*shape, 3)
         actuators[..., 2] = 1200.0
         reference = torch.stack(
-            (uniform(5.0, 30.0, self.num_segments), uniform(-math.pi, math.pi, self.num_segments),
-             uniform(1.2, 2.2, self.num_segments)), -1)  # fmt: skip
+            (
+                uniform(5.0, 30.0, self.num_segments),
+                uniform(-math.pi, math.pi, self.num_segments),
+                uniform(1.2, 2.2, self.num_segments),
+            ),
+            -1,
+        )
         setpoint = torch.stack((eta[..., 2], eta[..., 5], actuators[..., 2]), -1)
         stats = TensorDict({k: torch.zeros(shape) for k in TRACKING_SUMS}, batch_size=shape)
         td = self.vehicles.init(eta, nu, actuators)
@@ -232,13 +239,20 @@ class AUVTrackingEnv(EnvBase):
         e_sp = sp[..., 1] - eta_hat[..., 5]
         return torch.stack(
             (
-                (ref[..., 0] - eta_hat[..., 2]) / 10.0, torch.sin(e_psi), torch.cos(e_psi),
-                ref[..., 2] - nu_hat[..., 0], *nu_hat.unbind(-1), eta_hat[..., 3],
-                eta_hat[..., 4], (sp[..., 0] - eta_hat[..., 2]) / 10.0, torch.sin(e_sp),
-                torch.cos(e_sp), sp[..., 2] / 1525.0,
+                (ref[..., 0] - eta_hat[..., 2]) / 10.0,
+                torch.sin(e_psi),
+                torch.cos(e_psi),
+                ref[..., 2] - nu_hat[..., 0],
+                *nu_hat.unbind(-1),
+                eta_hat[..., 3],
+                eta_hat[..., 4],
+                (sp[..., 0] - eta_hat[..., 2]) / 10.0,
+                torch.sin(e_sp),
+                torch.cos(e_sp),
+                sp[..., 2] / 1525.0,
             ),
             -1,
-        ).to(torch.float32)  # fmt: skip
+        ).to(torch.float32)
 
     @staticmethod
     def _metrics(stats: TensorDictBase) -> TensorDict:
@@ -253,9 +267,13 @@ class AUVTrackingEnv(EnvBase):
         action = checked_action(tensordict["action"], (*self.batch_size, 3), "action")
         sp = td["setpoint"]
         setpoint = torch.stack(
-            ((sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp(0.0, 100.0),
-             sp[..., 1] + HEADING_STEP * action[..., 1], RPM_SCALE * (action[..., 2] + 3.0)), -1
-        )  # fmt: skip
+            (
+                (sp[..., 0] + DEPTH_STEP * action[..., 0]).clamp(0.0, 100.0),
+                sp[..., 1] + HEADING_STEP * action[..., 1],
+                RPM_SCALE * (action[..., 2] + 3.0),
+            ),
+            -1,
+        )
         vehicles, sea_td, decision = self.vehicles.decide(
             td.select("truth", "kf", "controller"), setpoint, td["ocean"], 200.0, generator=g
         )
@@ -266,19 +284,32 @@ class AUVTrackingEnv(EnvBase):
         asv = torch.cat([eta[..., :2], torch.zeros_like(eta[..., :1])], -1)
         asv[..., 0] += 30.0  # the ASV keeps station 30 m north of the AUV
         sea = self.sea
-        gnss = gnss_error_step(td["asv_gnss_error"], sea.gnss_sigma, sea.gnss_time_constant,
-                               self.decision_steps * self.dt, g)  # fmt: skip
+        gnss = gnss_error_step(
+            td["asv_gnss_error"],
+            sea.gnss_sigma,
+            sea.gnss_time_constant,
+            self.decision_steps * self.dt,
+            g,
+        )
         fix, fix_cov, valid = usbl_fix_from_asv(eta[..., :3], asv, gnss, sea, g)
         mean, cov = self.localiser.update_usbl(mean, cov, fix, fix_cov, valid)
 
         step_count = td["step_count"] + 1
-        out = TensorDict({
-            "truth": {"eta": eta, "nu": nu, "actuators": act},
-            "kf": {"mean": mean, "cov": cov, "heading": heading},
-            "setpoint": setpoint, "reference": td["reference"], "controller": memory,
-            "ocean": sea_td, "step_count": step_count, "stats": stats,
-            "metrics": self._metrics(stats), "asv_gnss_error": gnss,
-        }, batch_size=td.batch_size)  # fmt: skip
+        out = TensorDict(
+            {
+                "truth": {"eta": eta, "nu": nu, "actuators": act},
+                "kf": {"mean": mean, "cov": cov, "heading": heading},
+                "setpoint": setpoint,
+                "reference": td["reference"],
+                "controller": memory,
+                "ocean": sea_td,
+                "step_count": step_count,
+                "stats": stats,
+                "metrics": self._metrics(stats),
+                "asv_gnss_error": gnss,
+            },
+            batch_size=td.batch_size,
+        )
         ref = self._reference_now(out)
         cost = (
             wrap_angle(ref[..., 1] - eta[..., 5]).abs() / math.pi

@@ -51,8 +51,16 @@ __all__ = [
 ]
 
 _CURRENT_KEYS = ("current_speed", "current_direction", "time")
-_WAVE_KEYS = ("wave_phase", "wave_kx", "wave_ky", "wave_frequency", "wave_number", "wave_un",
-              "wave_ue", "wave_ud")  # fmt: skip
+_WAVE_KEYS = (
+    "wave_phase",
+    "wave_kx",
+    "wave_ky",
+    "wave_frequency",
+    "wave_number",
+    "wave_un",
+    "wave_ue",
+    "wave_ud",
+)
 
 #: running sums of one decision, per vehicle, returned by :meth:`VehicleStack.decide`
 DECISION_STATS = (
@@ -308,9 +316,15 @@ class VehicleStack:
         unroll = self.unroll if self.compile else steps
         for k in range(0, steps, unroll):
             carry, sums = run(
-                carry, sums, setpoint, here(sea_state["current_direction_mean"]), waves,
-                seabed, sensor_noise[k : k + unroll], sea_noise[k : k + unroll],
-            )  # fmt: skip
+                carry,
+                sums,
+                setpoint,
+                here(sea_state["current_direction_mean"]),
+                waves,
+                seabed,
+                sensor_noise[k : k + unroll],
+                sea_noise[k : k + unroll],
+            )
         out = TensorDict(
             {
                 "truth": {k: carry[k] for k in ("eta", "nu", "actuators")},
@@ -360,12 +374,20 @@ class VehicleStack:
         eta_hat, nu_hat = estimated_state(eta, nu, mean, heading)
         command, memory = self.controller.command(setpoint, eta_hat, nu_hat, carry["memory"], dt)
         speed_c, direction_c = ocean.advance_current(
-            carry["current_speed"], carry["current_direction"], direction_mean, self.sea, dt,
+            carry["current_speed"],
+            carry["current_direction"],
+            direction_mean,
+            self.sea,
+            dt,
             sea_draw,
-        )  # fmt: skip
+        )
         time = carry["time"] + dt
-        sea_here = {**waves, "current_speed": speed_c, "current_direction": direction_c,
-                    "time": time}  # fmt: skip
+        sea_here = {
+            **waves,
+            "current_speed": speed_c,
+            "current_direction": direction_c,
+            "time": time,
+        }
         current = ocean.current_from_state(sea_here, eta[..., :3])
         eta, nu, act = remus100.step_unchecked(eta, nu, act, command, current, dt)
         eta, nu, _, _ = depth_limits(eta, nu, seabed, check=False)
@@ -384,10 +406,17 @@ class VehicleStack:
         e_d = (setpoint[..., 0] - eta[..., 2]).abs()
         speed = _speed_through_water(eta, nu, current)
         new_carry = {
-            "eta": eta, "nu": nu, "actuators": act, "mean": mean, "cov": cov,
-            "heading": heading, "memory": memory, "current_speed": speed_c,
-            "current_direction": direction_c, "time": time,
-        }  # fmt: skip
+            "eta": eta,
+            "nu": nu,
+            "actuators": act,
+            "mean": mean,
+            "cov": cov,
+            "heading": heading,
+            "memory": memory,
+            "current_speed": speed_c,
+            "current_direction": direction_c,
+            "time": time,
+        }
         increments = {
             "heading_error_sum": e_h,
             "heading_error_sq": e_h * e_h,

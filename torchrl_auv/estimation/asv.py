@@ -68,10 +68,14 @@ def asv_fixes(
         gnss_error, sea.gnss_sigma, sea.gnss_time_constant, dt, None, standard_normal=draws["gnss"]
     )
     fix, fix_cov, valid = usbl_fix_from_asv(
-        auv_positions, asv[..., None, :].expand_as(auv_positions),
-        gnss[..., None, :].expand(*auv_positions.shape[:-1], 2), sea, None,
-        standard_normal=draws["usbl"], uniform=draws["dropout"],
-    )  # fmt: skip
+        auv_positions,
+        asv[..., None, :].expand_as(auv_positions),
+        gnss[..., None, :].expand(*auv_positions.shape[:-1], 2),
+        sea,
+        None,
+        standard_normal=draws["usbl"],
+        uniform=draws["dropout"],
+    )
     return asv, gnss, fix, fix_cov, valid
 
 

@@ -68,15 +68,21 @@ class Localiser:
             transition = torch.cat([torch.cat([eye, dt * eye], 1), torch.cat([zero, eye], 1)], 0)
             q = self.accel_sigma**2
             process = q * torch.cat(
-                [torch.cat([dt**4 / 4 * eye, dt**3 / 2 * eye], 1),
-                 torch.cat([dt**3 / 2 * eye, dt**2 * eye], 1)], 0
-            )  # fmt: skip
+                [
+                    torch.cat([dt**4 / 4 * eye, dt**3 / 2 * eye], 1),
+                    torch.cat([dt**3 / 2 * eye, dt**2 * eye], 1),
+                ],
+                0,
+            )
             onboard_h = torch.zeros(4, 6, dtype=dtype, device=device)
             onboard_h[0, 3] = onboard_h[1, 4] = onboard_h[2, 5] = onboard_h[3, 2] = 1.0
             usbl_h = torch.cat([eye, zero], 1)
             self._cache[key] = {
-                "F": transition, "Q": process, "H_onboard": onboard_h, "H_usbl": usbl_h,
-            }  # fmt: skip
+                "F": transition,
+                "Q": process,
+                "H_onboard": onboard_h,
+                "H_usbl": usbl_h,
+            }
         return self._cache[key]
 
     def init(
@@ -129,9 +135,14 @@ class Localiser:
         cross = (self.noise.compass * v_ned[..., :2].norm(dim=-1)).square()
         var_v = self.noise.dvl**2 + cross
         variances = torch.stack(
-            (var_v, var_v, torch.full_like(var_v, self.noise.dvl**2),
-             torch.full_like(var_v, max(self.noise.depth, 1e-6) ** 2)), -1
-        )  # fmt: skip
+            (
+                var_v,
+                var_v,
+                torch.full_like(var_v, self.noise.dvl**2),
+                torch.full_like(var_v, max(self.noise.depth, 1e-6) ** 2),
+            ),
+            -1,
+        )
         if dvl_valid is None:
             return kf_update_sequential(mean, cov, z, (3, 4, 5, 2), variances)
         # the same scalar updates in the same order, the DVL's three masked

@@ -258,8 +258,15 @@ def expert_setpoints(
         True
     """
     cfg = ExpertConfig() if config is None else config
-    view = ExpertView.of(auv_pose, target_position, cfg, others=other_auv_positions,
-                         has_target=has_target, current=current, edges=edges)  # fmt: skip
+    view = ExpertView.of(
+        auv_pose,
+        target_position,
+        cfg,
+        others=other_auv_positions,
+        has_target=has_target,
+        current=current,
+        edges=edges,
+    )
     direction = view.goal_dir
     for rule in HEADING_RULES:
         direction = rule(direction, view, cfg)

@@ -66,8 +66,9 @@ _MPS_PER_RPM = 2.5536 / 1525.0
 INWARD_NORMALS = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))
 
 
-def point_steered_for(to_target: torch.Tensor, edges: torch.Tensor | None,
-                      cfg: ExpertConfig) -> torch.Tensor:  # fmt: skip
+def point_steered_for(
+    to_target: torch.Tensor, edges: torch.Tensor | None, cfg: ExpertConfig
+) -> torch.Tensor:
     """The target relative to the AUV (``[*B, N, 2]``, m), moved to at least
     ``edge_clearance_m`` from every edge, by at most ``max_inward_shift_m``."""
     if edges is None:
@@ -122,8 +123,22 @@ class ExpertView:
         goal_dir = torch.where(distance > 1e-6, to_target / distance.clamp_min(1e-6), bow)
         arrival, flowing = _arrival_direction(goal_dir, current, cfg)
         inward = None if edges is None else unit(0.5 * (edges[..., 1::2] - edges[..., 0::2]))
-        return cls(position, psi, bow, to_target, distance, goal_dir, target_position[..., 2],
-                   valid, others, current, edges, inward, arrival, flowing)  # fmt: skip
+        return cls(
+            position,
+            psi,
+            bow,
+            to_target,
+            distance,
+            goal_dir,
+            target_position[..., 2],
+            valid,
+            others,
+            current,
+            edges,
+            inward,
+            arrival,
+            flowing,
+        )
 
     def edge_radius(self, cfg: ExpertConfig) -> torch.Tensor:
         """``[*B, N, 1]``: the width of the band along the edges in which the AUV does not
@@ -132,15 +147,21 @@ class ExpertView:
         return radius.to(self.goal_dir.dtype)
 
 
-def approach_from_downstream(direction: torch.Tensor, v: ExpertView,
-                             cfg: ExpertConfig) -> torch.Tensor:  # fmt: skip
+def approach_from_downstream(
+    direction: torch.Tensor, v: ExpertView, cfg: ExpertConfig
+) -> torch.Tensor:
     """In a current: inside the cone behind the node head for the node, outside it follow the
     cheapest Dubins path to the approach line (``plan_radius_m`` > 0), arriving bow upstream."""
-    approach, in_cone = approach_direction(-v.to_target, v.arrival,
-                                           offset_m=cfg.downstream_offset_m,
-                                           avoid_radius_m=cfg.avoid_radius_m, prefer=v.inward,
-                                           cone_deg=cfg.approach_cone_deg,
-                                           keep_out_m=cfg.keep_out_m, bow=v.bow)  # fmt: skip
+    approach, in_cone = approach_direction(
+        -v.to_target,
+        v.arrival,
+        offset_m=cfg.downstream_offset_m,
+        avoid_radius_m=cfg.avoid_radius_m,
+        prefer=v.inward,
+        cone_deg=cfg.approach_cone_deg,
+        keep_out_m=cfg.keep_out_m,
+        bow=v.bow,
+    )
     if v.current is not None and cfg.plan_radius_m > 0 and bool(v.flowing.any()):
         planned = _planned_direction(v.to_target, v.psi, v.arrival, v.current, v.edges, cfg)
         approach = torch.where(in_cone, approach, planned)
@@ -152,14 +173,14 @@ def arrive_along_edge(direction: torch.Tensor, v: ExpertView, cfg: ExpertConfig)
     arrive along the edge instead (sets ``v.along_edge``)."""
     if v.edges is None:
         return direction
-    edge_approach, along_edge = _edge_arrival(direction, v.to_target, v.edges, v.inward, v.bow,
-                                              cfg)  # fmt: skip
+    edge_approach, along_edge = _edge_arrival(direction, v.to_target, v.edges, v.inward, v.bow, cfg)
     v.along_edge = along_edge & ~v.flowing
     return torch.where(v.along_edge, edge_approach, direction)
 
 
-def run_past_close_target(direction: torch.Tensor, v: ExpertView,
-                          cfg: ExpertConfig) -> torch.Tensor:  # fmt: skip
+def run_past_close_target(
+    direction: torch.Tensor, v: ExpertView, cfg: ExpertConfig
+) -> torch.Tensor:
     """Still water: a target inside the turning circle on the AUV's side would be orbited, not
     reached; run straight on until it is outside (:math:`|d|^2 < 2 R |lateral|` is inside)."""
     lateral = (v.to_target * torch.stack((-v.bow[..., 1], v.bow[..., 0]), -1)).sum(-1)
@@ -167,8 +188,7 @@ def run_past_close_target(direction: torch.Tensor, v: ExpertView,
     return torch.where(orbit[..., None] & ~v.flowing & ~v.along_edge, v.bow, direction)
 
 
-def make_room_to_descend(direction: torch.Tensor, v: ExpertView,
-                         cfg: ExpertConfig) -> torch.Tensor:  # fmt: skip
+def make_room_to_descend(direction: torch.Tensor, v: ExpertView, cfg: ExpertConfig) -> torch.Tensor:
     """A node too close to reach its depth in time (``glide_ratio``, depth changes above
     ``glide_min_m``): head for the area's centre while descending."""
     if v.edges is None:
@@ -178,8 +198,9 @@ def make_room_to_descend(direction: torch.Tensor, v: ExpertView,
     return torch.where(steep[..., None], v.inward.to(direction.dtype), direction)
 
 
-def hold_course_without_target(direction: torch.Tensor, v: ExpertView,
-                               cfg: ExpertConfig) -> torch.Tensor:  # fmt: skip
+def hold_course_without_target(
+    direction: torch.Tensor, v: ExpertView, cfg: ExpertConfig
+) -> torch.Tensor:
     """An AUV without a target keeps its heading."""
     return torch.where(v.valid[..., None], direction, v.bow)
 
@@ -298,8 +319,12 @@ def _planned_direction(
     start = torch.zeros_like(to_node)
     goal_heading = torch.atan2(arrival[..., 1], arrival[..., 0])
     frac = torch.linspace(0.0, 1.0, cfg.plan_samples, dtype=to_node.dtype, device=to_node.device)
-    ahead = torch.full((*psi.shape, len(WORDS), 1), cfg.plan_lookahead_m, dtype=to_node.dtype,
-                       device=to_node.device)  # fmt: skip
+    ahead = torch.full(
+        (*psi.shape, len(WORDS), 1),
+        cfg.plan_lookahead_m,
+        dtype=to_node.dtype,
+        device=to_node.device,
+    )
     costs, headings = [], []
     for offset in cfg.plan_offsets_m:
         goal = to_node - offset * arrival
@@ -349,8 +374,14 @@ def _edge_arrival(
     tangential = goal_dir - (outward[..., None] * out).sum(-2)
     length = torch.linalg.vector_norm(tangential, dim=-1, keepdim=True)
     arrival = torch.where(length > 0.1, unit(tangential), inward.to(goal_dir.dtype))
-    direction, _ = approach_direction(-to_target, arrival, offset_m=cfg.edge_offset_m,
-                                      avoid_radius_m=cfg.avoid_radius_m, prefer=inward,
-                                      cone_deg=cfg.approach_cone_deg, keep_out_m=cfg.keep_out_m,
-                                      bow=bow)  # fmt: skip
+    direction, _ = approach_direction(
+        -to_target,
+        arrival,
+        offset_m=cfg.edge_offset_m,
+        avoid_radius_m=cfg.avoid_radius_m,
+        prefer=inward,
+        cone_deg=cfg.approach_cone_deg,
+        keep_out_m=cfg.keep_out_m,
+        bow=bow,
+    )
     return direction, outward.amax(-1, keepdim=True) > 0.2

@@ -99,9 +99,19 @@ class StationKeepingConfig:
     min_deadband_m: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ("altitude_m", "gain", "max_ground_speed_mps", "deadband_m",
-                     "min_water_speed_mps", "turn_rpm", "rpm_per_mps", "max_rpm",
-                     "max_crab_deg", "radius_margin_m", "min_deadband_m"):  # fmt: skip
+        for name in (
+            "altitude_m",
+            "gain",
+            "max_ground_speed_mps",
+            "deadband_m",
+            "min_water_speed_mps",
+            "turn_rpm",
+            "rpm_per_mps",
+            "max_rpm",
+            "max_crab_deg",
+            "radius_margin_m",
+            "min_deadband_m",
+        ):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 

@@ -127,8 +127,10 @@ class ProposerAlone(TensorDictModuleBase):
             raise ValueError(f"num_candidates must be an int >= 1, got {num_candidates!r}")
         horizon = proposer.horizon
         if not (isinstance(replan_every, int) and 1 <= replan_every <= horizon):
-            raise ValueError(f"replan_every must be an int in [1, {horizon}] (the proposer's "
-                             f"horizon), got {replan_every!r}")  # fmt: skip
+            raise ValueError(
+                f"replan_every must be an int in [1, {horizon}] (the proposer's "
+                f"horizon), got {replan_every!r}"
+            )
         self.proposer, self.pick, self.action_key = proposer, pick, action_key
         self.num_candidates, self.replan_every = num_candidates, replan_every
         self.step_count_key = step_count_key
@@ -145,9 +147,11 @@ class ProposerAlone(TensorDictModuleBase):
         proposer = self.proposer
         if self.num_candidates is None:
             return proposer(tensordict).get(proposer.candidates_key)
-        candidates, _ = proposer.sample(proposer.build_state(tensordict),
-                                        num_candidates=self.num_candidates,
-                                        generator=proposer.generator)  # fmt: skip
+        candidates, _ = proposer.sample(
+            proposer.build_state(tensordict),
+            num_candidates=self.num_candidates,
+            generator=proposer.generator,
+        )
         tensordict.set(proposer.candidates_key, candidates)
         tensordict.set(proposer.first_actions_key, candidates[..., 0, :])
         return candidates
@@ -162,9 +166,11 @@ class ProposerAlone(TensorDictModuleBase):
         batch = tensordict.get(self.proposer.state_key).shape[:-1]
         count = tensordict.get(self.step_count_key, None)
         if count is None:
-            raise KeyError(f"replan_every > 1 reads the decision counter {self.step_count_key!r} "
-                           "(step_count_key), absent from the input; add TorchRL's StepCounter "
-                           "to the env")  # fmt: skip
+            raise KeyError(
+                f"replan_every > 1 reads the decision counter {self.step_count_key!r} "
+                "(step_count_key), absent from the input; add TorchRL's StepCounter "
+                "to the env"
+            )
         count = count.reshape(*count.shape[:-1], *(1,) * (len(batch) - count.dim() + 1))
         restarted = (count == 0).expand(batch)
         if self._plan is None or self._plan.shape[:-2] != batch:
@@ -176,8 +182,11 @@ class ProposerAlone(TensorDictModuleBase):
         if due.any():
             work = tensordict.select(*self.proposer.in_keys, strict=False)
             chunk = pick_candidate(self._candidates(work), self.pick)
-            self._plan = chunk if self._plan is None else torch.where(
-                due[..., None, None], chunk, self._plan)  # fmt: skip
+            self._plan = (
+                chunk
+                if self._plan is None
+                else torch.where(due[..., None, None], chunk, self._plan)
+            )
             self._step = torch.where(due, torch.zeros_like(self._step), self._step)
         index = self._step[..., None, None].expand(*batch, 1, self._plan.shape[-1])
         tensordict.set(self.action_key, self._plan.gather(-2, index).squeeze(-2))

@@ -55,9 +55,11 @@ class _Conditioner(nn.Module):
             nn.Linear(state_dim, cond_dim), nn.Mish(), nn.Linear(cond_dim, cond_dim)
         )
         self.time_mlp = nn.Sequential(
-            SinusoidalEmbedding(cond_dim), nn.Linear(cond_dim, cond_dim), nn.Mish(),
+            SinusoidalEmbedding(cond_dim),
             nn.Linear(cond_dim, cond_dim),
-        )  # fmt: skip
+            nn.Mish(),
+            nn.Linear(cond_dim, cond_dim),
+        )
         total = 2 * sum(block_dims)
         self.state_film = nn.Linear(cond_dim, total)
         self.time_film = nn.Linear(cond_dim, total, bias=False)
@@ -125,8 +127,14 @@ class MLPNoiseModel(_NoiseModel):
         cond_dim: int = 64,
     ) -> None:
         super().__init__()
-        _check_sizes(state_dim=state_dim, action_dim=action_dim, horizon=horizon,
-                     hidden=hidden, depth=depth, cond_dim=cond_dim)  # fmt: skip
+        _check_sizes(
+            state_dim=state_dim,
+            action_dim=action_dim,
+            horizon=horizon,
+            hidden=hidden,
+            depth=depth,
+            cond_dim=cond_dim,
+        )
         self.horizon, self.action_dim = horizon, action_dim
         self.conditioner = _Conditioner(state_dim, cond_dim, [hidden] * depth)
         self.inp = nn.Linear(horizon * action_dim, hidden)
@@ -185,8 +193,7 @@ class TemporalUNet1d(_NoiseModel):
         cond_dim: int = 128,
     ) -> None:
         super().__init__()
-        _check_sizes(state_dim=state_dim, action_dim=action_dim, horizon=horizon,
-                     cond_dim=cond_dim)  # fmt: skip
+        _check_sizes(state_dim=state_dim, action_dim=action_dim, horizon=horizon, cond_dim=cond_dim)
         if len(channels) < 1 or min(channels) < 1:
             raise ValueError(f"channels must be a non-empty tuple of ints >= 1, got {channels}")
         factor = 2 ** (len(channels) - 1)

@@ -104,8 +104,12 @@ class DiffusionProposer(TensorDictModuleBase):
         compile: bool = False,
     ) -> None:
         super().__init__()
-        for name, value in (("state_dim", state_dim), ("action_dim", action_dim),
-                            ("num_candidates", num_candidates), ("horizon", horizon)):  # fmt: skip
+        for name, value in (
+            ("state_dim", state_dim),
+            ("action_dim", action_dim),
+            ("num_candidates", num_candidates),
+            ("horizon", horizon),
+        ):
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"{name} must be an int >= 1, got {value!r}")
         if sampler not in SAMPLERS:
@@ -211,10 +215,18 @@ class DiffusionProposer(TensorDictModuleBase):
             history_length = obs_spec[(*history_key, "observation")].shape[-2]
         state_dim = cls.conditioning_dim(obs_dim, action_dim, history_length)
         return cls(
-            state_dim, action_dim, state_key=obs_key, history_key=history_key,
-            action_low=low, action_high=high, num_candidates=num_candidates, horizon=horizon,
-            num_inference_steps=num_inference_steps, sampler=sampler, **kwargs,
-        )  # fmt: skip
+            state_dim,
+            action_dim,
+            state_key=obs_key,
+            history_key=history_key,
+            action_low=low,
+            action_high=high,
+            num_candidates=num_candidates,
+            horizon=horizon,
+            num_inference_steps=num_inference_steps,
+            sampler=sampler,
+            **kwargs,
+        )
 
     def configure_sampling(
         self,
@@ -257,8 +269,11 @@ class DiffusionProposer(TensorDictModuleBase):
                     f"history_key {self.history_key!r} is missing from the input: wrap the env "
                     "with torchrl_auv.envs.StateActionHistory (or pass history_key=None)"
                 )
-            parts += [history["observation"].flatten(-2), history["action"].flatten(-2),
-                      history["mask"].to(state.dtype)]  # fmt: skip
+            parts += [
+                history["observation"].flatten(-2),
+                history["action"].flatten(-2),
+                history["mask"].to(state.dtype),
+            ]
         state = torch.cat(parts, -1)
         if state.shape[-1] != self.state_dim:
             raise ValueError(
@@ -447,8 +462,14 @@ class DiffusionProposer(TensorDictModuleBase):
         0.995, with a warning)."""
         data = torch.load(Path(path), weights_only=True)  # plain tensors and containers only
         config = dict(data["config"])
-        for key in ("state_key", "history_key", "candidates_key", "first_actions_key",
-                    "stages_key", "action_key"):  # fmt: skip
+        for key in (
+            "state_key",
+            "history_key",
+            "candidates_key",
+            "first_actions_key",
+            "stages_key",
+            "action_key",
+        ):
             if isinstance(config[key], list):
                 config[key] = tuple(config[key])
         proposer = cls(**config)

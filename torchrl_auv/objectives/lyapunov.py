@@ -87,9 +87,11 @@ def _read_out(out: TensorDictBase, key: NestedKey, name: str, network: str, modu
     """``out[key]``, or a ``ValueError`` naming the loss's key and the critic's out keys."""
     value = out.get(key, None)
     if value is None:
-        raise ValueError(f"the loss reads the {network}'s output from its {name!r} key {key!r}, "
-                         f"but the critic writes {list(module.out_keys)}: make them agree with "
-                         f"loss.set_keys({name}=...) or the critic's out_keys")  # fmt: skip
+        raise ValueError(
+            f"the loss reads the {network}'s output from its {name!r} key {key!r}, "
+            f"but the critic writes {list(module.out_keys)}: make them agree with "
+            f"loss.set_keys({name}=...) or the critic's out_keys"
+        )
     return value
 
 
@@ -219,8 +221,11 @@ class LyapunovActorCriticLoss(LossModule):
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
         if not stability_weight > 0:
             raise ValueError(f"stability_weight must be > 0, got {stability_weight}")
-        for name, value in (("lambda_init", lambda_init), ("lambda_max", lambda_max),
-                            ("beta_init", beta_init)):  # fmt: skip
+        for name, value in (
+            ("lambda_init", lambda_init),
+            ("lambda_max", lambda_max),
+            ("beta_init", beta_init),
+        ):
             if not value > 0:
                 raise ValueError(f"{name} must be > 0, got {value}")
         if lambda_init > lambda_max:
@@ -340,8 +345,16 @@ class LyapunovActorCriticLoss(LossModule):
     def out_keys(self) -> list[str]:
         losses = ["loss_actor", "loss_lyapunov", "loss_lambda", "loss_beta"]
         task = ["loss_qvalue", "qvalue"] if self.qvalue_network is not None else []
-        return [*losses, "lambda", "beta", "delta_l", "violation_rate", "lyapunov_value",
-                "negative_cost_fraction", *task]  # fmt: skip
+        return [
+            *losses,
+            "lambda",
+            "beta",
+            "delta_l",
+            "violation_rate",
+            "lyapunov_value",
+            "negative_cost_fraction",
+            *task,
+        ]
 
     # -- pieces ----------------------------------------------------------------------------
     def _sample(self, td: TensorDictBase, params) -> tuple[torch.Tensor, torch.Tensor]:
@@ -359,8 +372,13 @@ class LyapunovActorCriticLoss(LossModule):
         td = td.select(*self.lyapunov_network.in_keys, strict=False).copy()
         td.set(self.tensor_keys.action, action)
         with params.to_module(self.lyapunov_network):
-            raw = _read_out(self.lyapunov_network(td), self.tensor_keys.value, "value",
-                            "lyapunov_network", self.lyapunov_network)  # fmt: skip
+            raw = _read_out(
+                self.lyapunov_network(td),
+                self.tensor_keys.value,
+                "value",
+                "lyapunov_network",
+                self.lyapunov_network,
+            )
         observation = td.get(self.tensor_keys.observation, None) if self.spec.prior else None
         return lyapunov_value(raw, self.spec, observation)
 
@@ -369,18 +387,25 @@ class LyapunovActorCriticLoss(LossModule):
         td = td.select(*self.qvalue_network.in_keys, strict=False).copy()
         td.set(self.tensor_keys.action, action)
         with params.to_module(self.qvalue_network):
-            return _read_out(self.qvalue_network(td), self.tensor_keys.qvalue, "qvalue",
-                             "qvalue_network", self.qvalue_network)  # fmt: skip
+            return _read_out(
+                self.qvalue_network(td),
+                self.tensor_keys.qvalue,
+                "qvalue",
+                "qvalue_network",
+                self.qvalue_network,
+            )
 
     def _executed_next(self, next_td: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
         """The candidate the selector executes at the next state (argmin of the target
         critic's :math:`L(s', a'_k)` under ``rule``) and its target value ``[*B, 1]``."""
-        candidates, anchor = next_candidates(next_td, self.tensor_keys.candidates,
-                                             self.tensor_keys.anchor, self.rule)  # fmt: skip
+        candidates, anchor = next_candidates(
+            next_td, self.tensor_keys.candidates, self.tensor_keys.anchor, self.rule
+        )
         action_key = self.tensor_keys.action
         inputs = {*self.lyapunov_network.in_keys, self.tensor_keys.observation} - {action_key}
-        td = per_candidate(next_td, [k for k in inputs if next_td.get(k, None) is not None],
-                           candidates.shape[-2])  # fmt: skip
+        td = per_candidate(
+            next_td, [k for k in inputs if next_td.get(k, None) is not None], candidates.shape[-2]
+        )
         values = self._lyapunov(td, candidates, self.target_lyapunov_network_params)[..., 0]
         index = self.rule.choose(-values, -values, anchor)  # [..., K] -> [...]
         pick = index[..., None, None].expand(*index.shape, 1, candidates.shape[-1])
@@ -397,8 +422,10 @@ class LyapunovActorCriticLoss(LossModule):
             return cost
         if key != getattr(self.default_keys(), name):
             have = sorted(str(k) for k in next_td.keys(True, True))
-            raise ValueError(f"the {name} key {key!r} (set with set_keys) is not in the data's "
-                             f"'next' entry, which has {have}")  # fmt: skip
+            raise ValueError(
+                f"the {name} key {key!r} (set with set_keys) is not in the data's "
+                f"'next' entry, which has {have}"
+            )
         reward = next_td.get(self.tensor_keys.reward, None)
         if reward is None:
             raise ValueError(
@@ -438,8 +465,9 @@ class LyapunovActorCriticLoss(LossModule):
                 next_action, next_value = self._executed_next(next_td)
             else:
                 next_action, _ = self._sample(next_td, actor_params.detach())
-                next_value = self._lyapunov(next_td, next_action,
-                                            self.target_lyapunov_network_params)  # fmt: skip
+                next_value = self._lyapunov(
+                    next_td, next_action, self.target_lyapunov_network_params
+                )
             target = cost + self.gamma * continues * next_value
         value = self._lyapunov(td, action, critic_params)
         loss_lyapunov = self._td_loss(value, target)

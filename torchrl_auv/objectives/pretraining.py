@@ -138,8 +138,12 @@ def pretrain_proposer(
         >>> result.steps, len(result.losses)
         ([10, 20], 2)
     """
-    for name, value in (("steps", steps), ("batch_size", batch_size), ("log_every", log_every),
-                        ("eval_every", eval_every)):  # fmt: skip
+    for name, value in (
+        ("steps", steps),
+        ("batch_size", batch_size),
+        ("log_every", log_every),
+        ("eval_every", eval_every),
+    ):
         if not (isinstance(value, int) and value >= 1):
             raise ValueError(f"{name} must be an int >= 1, got {value!r}")
     if not 0.0 <= heldout_fraction < 1.0:

@@ -36,16 +36,23 @@ _FORM_NAMES, _PRIOR_NAMES = sorted(FORMS), sorted(PRIORS)
 def _encode(spec: LyapunovSpec, device: torch.device | str | None = None) -> torch.Tensor:
     """``[form index, prior index (-1: none), alpha, prior weight]`` (float64, on ``device``)."""
     prior = -1 if spec.prior is None else _PRIOR_NAMES.index(spec.prior)
-    return torch.tensor([_FORM_NAMES.index(spec.form), prior, spec.alpha, spec.prior_weight],
-                        dtype=torch.float64, device=device)  # fmt: skip
+    return torch.tensor(
+        [_FORM_NAMES.index(spec.form), prior, spec.alpha, spec.prior_weight],
+        dtype=torch.float64,
+        device=device,
+    )
 
 
 def _decode(code: torch.Tensor, like: LyapunovSpec) -> LyapunovSpec:
     """The spec of ``code`` (:func:`_encode`), the other fields (prior indices) from ``like``."""
     form, prior, alpha, weight = code.tolist()
-    return dataclasses.replace(like, form=_FORM_NAMES[int(form)], alpha=alpha,
-                               prior=None if prior < 0 else _PRIOR_NAMES[int(prior)],
-                               prior_weight=weight)  # fmt: skip
+    return dataclasses.replace(
+        like,
+        form=_FORM_NAMES[int(form)],
+        alpha=alpha,
+        prior=None if prior < 0 else _PRIOR_NAMES[int(prior)],
+        prior_weight=weight,
+    )
 
 
 class CandidateSelector(TensorDictModuleBase):
@@ -249,8 +256,9 @@ class CandidateSelector(TensorDictModuleBase):
             explore = torch.rand(shape, generator=self.generator, device=draw_on) < self.epsilon
             random = torch.randint(0, n, shape, generator=self.generator, device=draw_on)
             index = torch.where(explore.to(scores.device), random.to(scores.device), index)
-        chosen = torch.gather(first, -2, index[..., None, None].expand(*index.shape, 1,
-                                                                      first.shape[-1]))  # fmt: skip
+        chosen = torch.gather(
+            first, -2, index[..., None, None].expand(*index.shape, 1, first.shape[-1])
+        )
         tensordict.set(self.action_key, chosen.squeeze(-2))
         tensordict.set((*self.selector_key, "index"), index)
         tensordict.set((*self.selector_key, "scores"), scores)

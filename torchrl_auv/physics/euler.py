@@ -34,13 +34,25 @@ FACTORS = ("1", "c_phi", "c_th", "c_psi", "s_phi", "s_th", "s_psi", "t_th", "sec
 
 #: R then T, row by row: each entry a sum of signed products ("0" for a zero entry).
 ENTRIES = (
-    "c_psi*c_th", "-s_psi*c_phi + c_psi*s_th*s_phi", "s_psi*s_phi + c_psi*c_phi*s_th",
-    "s_psi*c_th", "c_psi*c_phi + s_phi*s_th*s_psi", "-c_psi*s_phi + s_th*s_psi*c_phi",
-    "-s_th", "c_th*s_phi", "c_th*c_phi",
-    "1", "s_phi*t_th", "c_phi*t_th",
-    "0", "c_phi", "-s_phi",
-    "0", "s_phi*sec_th", "c_phi*sec_th",
-)  # fmt: skip
+    "c_psi*c_th",
+    "-s_psi*c_phi + c_psi*s_th*s_phi",
+    "s_psi*s_phi + c_psi*c_phi*s_th",
+    "s_psi*c_th",
+    "c_psi*c_phi + s_phi*s_th*s_psi",
+    "-c_psi*s_phi + s_th*s_psi*c_phi",
+    "-s_th",
+    "c_th*s_phi",
+    "c_th*c_phi",
+    "1",
+    "s_phi*t_th",
+    "c_phi*t_th",
+    "0",
+    "c_phi",
+    "-s_phi",
+    "0",
+    "s_phi*sec_th",
+    "c_phi*sec_th",
+)
 
 
 def _tables() -> tuple[torch.Tensor, torch.Tensor]:

@@ -60,8 +60,9 @@ def plot_learning_curve(
 
     curves = read_curve(path)
     present = [k for k in keys if k in curves] or sorted(curves)[:4]
-    fig, axes = plt.subplots(len(present), 1, figsize=(7, 2.2 * len(present)), sharex=True,
-                             squeeze=False)  # fmt: skip
+    fig, axes = plt.subplots(
+        len(present), 1, figsize=(7, 2.2 * len(present)), sharex=True, squeeze=False
+    )
     for ax, key in zip(axes[:, 0], present, strict=True):
         steps, values = curves[key]
         ax.plot([step + offline_frames for step in steps], values, marker=".")

@@ -56,10 +56,23 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
     if "task" in nxt.keys():
         nodes = nxt["task", "nodes"][-1]
         xy, served = nodes["position"].detach(), nodes["services"] > 0
-        ax_top.scatter(xy[~served, 1].numpy(), xy[~served, 0].numpy(), s=12, marker="s",
-                       facecolors="none", edgecolors="grey", label="node")  # fmt: skip
-        ax_top.scatter(xy[served, 1].numpy(), xy[served, 0].numpy(), s=12, marker="s",
-                       color="tab:green", label="served node")  # fmt: skip
+        ax_top.scatter(
+            xy[~served, 1].numpy(),
+            xy[~served, 0].numpy(),
+            s=12,
+            marker="s",
+            facecolors="none",
+            edgecolors="grey",
+            label="node",
+        )
+        ax_top.scatter(
+            xy[served, 1].numpy(),
+            xy[served, 0].numpy(),
+            s=12,
+            marker="s",
+            color="tab:green",
+            label="served node",
+        )
     if "asv" in nxt.keys():
         asv = nxt["asv"].detach()
         ax_top.plot(asv[:, 1].numpy(), asv[:, 0].numpy(), ":", color="grey", label="ASV")
@@ -67,12 +80,24 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
         name = f"AUV {j} " if fleet > 1 else ""
         (line,) = ax_top.plot(eta[:, j, 1].numpy(), eta[:, j, 0].numpy(), label=f"{name}true")
         color = line.get_color()
-        ax_top.plot(estimate[:, j, 1].numpy(), estimate[:, j, 0].numpy(), "--", color=color,
-                    alpha=0.7, label=f"{name}KF estimate")  # fmt: skip
+        ax_top.plot(
+            estimate[:, j, 1].numpy(),
+            estimate[:, j, 0].numpy(),
+            "--",
+            color=color,
+            alpha=0.7,
+            label=f"{name}KF estimate",
+        )
         ax_top.plot(eta[:1, j, 1].numpy(), eta[:1, j, 0].numpy(), "o", color=color)
         ax_depth.plot(time, eta[:, j, 2].numpy(), color=color, label=f"{name}depth (true)")
-        ax_depth.plot(time, setpoint[:, j, 0].numpy(), "--", color=color, alpha=0.7,
-                      label=f"{name}depth setpoint")  # fmt: skip
+        ax_depth.plot(
+            time,
+            setpoint[:, j, 0].numpy(),
+            "--",
+            color=color,
+            alpha=0.7,
+            label=f"{name}depth setpoint",
+        )
     ax_top.set_xlabel("east y (m)")
     ax_top.set_ylabel("north x (m)")
     ax_top.set_aspect("equal", adjustable="datalim")

@@ -46,8 +46,11 @@ def regression_inputs(data: TensorDictBase, inputs: str) -> torch.Tensor:
     parts = [data["observation"]]
     if inputs == "history":
         history = data["history"]
-        parts += [history["observation"].flatten(-2), history["action"].flatten(-2),
-                  history["mask"].to(data["observation"].dtype)]  # fmt: skip
+        parts += [
+            history["observation"].flatten(-2),
+            history["action"].flatten(-2),
+            history["mask"].to(data["observation"].dtype),
+        ]
     return torch.cat(parts, -1)
 
 

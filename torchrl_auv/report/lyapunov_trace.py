@@ -68,8 +68,11 @@ def lyapunov_trace(rollout: TensorDictBase) -> dict[str, torch.Tensor]:
     square = torch.where(alive, (value - mean).square(), 0.0).sum(0)
     std = (square / (count - 1).clamp_min(1)).sqrt()
     nan = torch.full_like(mean, torch.nan)
-    return {"mean": torch.where(count > 0, mean, nan), "std": torch.where(count > 0, std, nan),
-            "episodes": count}  # fmt: skip
+    return {
+        "mean": torch.where(count > 0, mean, nan),
+        "std": torch.where(count > 0, std, nan),
+        "episodes": count,
+    }
 
 
 def write_lyapunov_trace(cfg: Mapping, run_dir: str | Path, policy) -> Path:
@@ -84,8 +87,11 @@ def write_lyapunov_trace(cfg: Mapping, run_dir: str | Path, policy) -> Path:
 
     ev = cfg["eval"]
     env = held_out_env(cfg, ev["num_envs"], ev["steps"])(ev["sea_states"][0], ev["seed"])
-    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad(), \
-            torch.random.fork_rng():  # fmt: skip
+    with (
+        set_exploration_type(ExplorationType.DETERMINISTIC),
+        torch.no_grad(),
+        torch.random.fork_rng(),
+    ):
         torch.manual_seed(ev["seed"])
         rollout = env.rollout(ev["steps"], policy, break_when_any_done=False)
     trace = lyapunov_trace(rollout)
@@ -93,7 +99,13 @@ def write_lyapunov_trace(cfg: Mapping, run_dir: str | Path, policy) -> Path:
     with open(path, "w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["decision", "mean", "std", "episodes"])
-        for t, (m, s, n) in enumerate(zip(trace["mean"].tolist(), trace["std"].tolist(),
-                                          trace["episodes"].tolist(), strict=True)):  # fmt: skip
+        for t, (m, s, n) in enumerate(
+            zip(
+                trace["mean"].tolist(),
+                trace["std"].tolist(),
+                trace["episodes"].tolist(),
+                strict=True,
+            )
+        ):
             writer.writerow([t, m, s, n])
     return path

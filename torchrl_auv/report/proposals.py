@@ -58,8 +58,15 @@ def plot_pretraining_loss(
         ax.plot(list(heldout_steps), list(heldout_losses), "o-", label="held out")
     for start, name in list(phases)[1:]:
         ax.axvline(start, color="grey", linestyle="--", linewidth=0.8)
-        ax.annotate(name, (start, 1.0), xycoords=("data", "axes fraction"), xytext=(3, -12),
-                    textcoords="offset points", fontsize=8, color="grey")  # fmt: skip
+        ax.annotate(
+            name,
+            (start, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(3, -12),
+            textcoords="offset points",
+            fontsize=8,
+            color="grey",
+        )
     ax.set_yscale("log")
     ax.set_xlabel("optimiser step")
     ax.set_ylabel("denoising loss (MSE of the noise)")

@@ -41,6 +41,9 @@ def plot_run(cfg: Mapping, run_dir: str | Path, policy) -> list[Path]:
         if "proposer" in cfg
         else demonstration_frames(cfg)
     )
-    return [plot_learning_curve(run_dir / "train_curve.csv", run_dir / "learning_curve.png",
-                                offline_frames=offline),
-            plot_episode(episode[:, :end], run_dir / "eval_episode.png")]  # fmt: skip
+    return [
+        plot_learning_curve(
+            run_dir / "train_curve.csv", run_dir / "learning_curve.png", offline_frames=offline
+        ),
+        plot_episode(episode[:, :end], run_dir / "eval_episode.png"),
+    ]

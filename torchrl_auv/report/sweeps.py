@@ -52,8 +52,16 @@ __all__ = [
 ]
 
 #: The metrics the table shows by default (eval.csv has more: pass ``metrics=``).
-DEFAULT_METRICS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "cost_mean",
-                   "heading_error_mean", "depth_error_mean")  # fmt: skip
+DEFAULT_METRICS = (
+    "sdr_mbit",
+    "ssn",
+    "ec_w",
+    "collisions",
+    "violation_rate",
+    "cost_mean",
+    "heading_error_mean",
+    "depth_error_mean",
+)
 
 
 #: Metrics where a lower value is better (:func:`compare`'s probability of improvement).
@@ -126,8 +134,16 @@ def _groups(
 ):
     """``(axes, {(*axis values, sea_state, policy): rows})``: :func:`aggregate`'s grouping;
     the rows of the policies in ``also`` are kept whatever ``policies`` keeps."""
-    axes = [key for key in rows[0] if key not in (over, "run", "sea_state", "policy")
-            and not isinstance(rows[0][key], float)] if rows else []  # fmt: skip
+    axes = (
+        [
+            key
+            for key in rows[0]
+            if key not in (over, "run", "sea_state", "policy")
+            and not isinstance(rows[0][key], float)
+        ]
+        if rows
+        else []
+    )
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         policy, own = row["policy"], row.get("framework")
@@ -281,8 +297,10 @@ def markdown_table(table: Sequence[dict], *, metrics: Sequence[str] = DEFAULT_ME
         for key in table[0]
         if key not in metrics and not key.endswith(("_std", "_low", "_high"))
     ]
-    lines = ["| " + " | ".join([*labels, *metrics]) + " |",
-             "|" + "---|" * (len(labels) + len(metrics))]  # fmt: skip
+    lines = [
+        "| " + " | ".join([*labels, *metrics]) + " |",
+        "|" + "---|" * (len(labels) + len(metrics)),
+    ]
     for row in table:
         cells = [str(row[label]) for label in labels]
         cells += [_cell(row, m) for m in metrics]

@@ -104,9 +104,12 @@ class KalmanObserver:
                 )
             else:
                 self.gnss_error = gnss_error_step(
-                    self.gnss_error, sea.gnss_sigma, sea.gnss_time_constant,
-                    self.fix_every * self.dt, g,
-                )  # fmt: skip
+                    self.gnss_error,
+                    sea.gnss_sigma,
+                    sea.gnss_time_constant,
+                    self.fix_every * self.dt,
+                    g,
+                )
             asv = torch.zeros_like(eta[..., :3])
             asv[..., 0] = eta[..., 0] + self.asv_offset
             asv[..., 1] = eta[..., 1]

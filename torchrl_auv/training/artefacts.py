@@ -99,9 +99,13 @@ class ArtefactCache:
         return self.root / f"{name}-{values_key(values)}"
 
     def get_or_build(
-        self, name: str, values: Mapping, build: Callable[[Path], None], *,
+        self,
+        name: str,
+        values: Mapping,
+        build: Callable[[Path], None],
+        *,
         resumable: bool = False,
-    ) -> tuple[Path, bool]:  # fmt: skip
+    ) -> tuple[Path, bool]:
         """The folder of ``values``, built by ``build(folder)`` if it does not exist yet.
 
         ``build`` writes into a temporary folder, which becomes the artefact only when
@@ -123,8 +127,11 @@ class ArtefactCache:
                 log.info("artefact: reusing %s", folder)
                 return folder, False
             # builds of this folder cut short (the lock is ours: none is running), newest first
-            stale = sorted(self.root.glob(f".{folder.name}.partial-*"),
-                           key=lambda path: path.stat().st_mtime, reverse=True)  # fmt: skip
+            stale = sorted(
+                self.root.glob(f".{folder.name}.partial-*"),
+                key=lambda path: path.stat().st_mtime,
+                reverse=True,
+            )
             partial = self.root / f".{folder.name}.partial-{os.getpid()}"
             if resumable and stale:
                 stale.pop(0).rename(partial)

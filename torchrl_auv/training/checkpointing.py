@@ -89,8 +89,9 @@ def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress) -> tupl
     rotation = VerifiedRotation(Path(run_dir) / "checkpoints", keep_last=1)
     intact, damaged = rotation.newest_intact()
     for path, problems in damaged:
-        warnings.warn(f"checkpoint {path} is damaged and was not loaded: {'; '.join(problems)}",
-                      stacklevel=2)  # fmt: skip
+        warnings.warn(
+            f"checkpoint {path} is damaged and was not loaded: {'; '.join(problems)}", stacklevel=2
+        )
     if intact is None:
         if damaged:
             raise CheckpointError(
@@ -100,8 +101,11 @@ def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress) -> tupl
         return 0, {}
     # newest_intact hashed it already; only a checkpoint without checksums is unverified
     if not (intact / CHECKSUMS).exists() and (problems := checkpoint_problems(intact)):
-        warnings.warn(f"checkpoint {intact} cannot be verified ({'; '.join(problems)}); "
-                      "loading it unverified", stacklevel=2)  # fmt: skip
+        warnings.warn(
+            f"checkpoint {intact} cannot be verified ({'; '.join(problems)}); "
+            "loading it unverified",
+            stacklevel=2,
+        )
     elif damaged:
         warnings.warn(f"resuming from {intact}, the newest intact checkpoint", stacklevel=2)
     try:
@@ -121,12 +125,19 @@ class SpecState:
 
     def state_dict(self) -> dict:
         spec = self.loss.spec
-        return {"form": spec.form, "prior": spec.prior or "", "alpha": float(spec.alpha),
-                "prior_weight": float(spec.prior_weight)}  # fmt: skip
+        return {
+            "form": spec.form,
+            "prior": spec.prior or "",
+            "alpha": float(spec.alpha),
+            "prior_weight": float(spec.prior_weight),
+        }
 
     def load_state_dict(self, state: Mapping) -> None:
         spec = dataclasses.replace(
-            self.loss.spec, form=state["form"], prior=state["prior"] or None,
-            alpha=state["alpha"], prior_weight=state["prior_weight"],
-        )  # fmt: skip
+            self.loss.spec,
+            form=state["form"],
+            prior=state["prior"] or None,
+            alpha=state["alpha"],
+            prior_weight=state["prior_weight"],
+        )
         self.loss.set_lyapunov_spec(spec)

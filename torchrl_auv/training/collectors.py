@@ -86,14 +86,16 @@ def check_ray_address(
     hostport = address.split("://", 1)[-1]
     host, sep, port = hostport.rpartition(":")
     if not sep or not port.isdigit() or not host:
-        raise ValueError(f"{key} must be 'auto', 'local', 'host:port' or "
-                         f"'ray://host:port', got {address!r}")  # fmt: skip
+        raise ValueError(
+            f"{key} must be 'auto', 'local', 'host:port' or 'ray://host:port', got {address!r}"
+        )
     try:
         socket.create_connection((host, int(port)), timeout=timeout_s).close()
     except OSError as error:
-        raise ValueError(f"{key} {address!r} is unreachable ({error}); "
-                         f"start a cluster with `ray start --head` or fix the address"
-                         ) from error  # fmt: skip
+        raise ValueError(
+            f"{key} {address!r} is unreachable ({error}); "
+            f"start a cluster with `ray start --head` or fix the address"
+        ) from error
 
 
 def check_ray_backend(address: str | None = None) -> str | None:
@@ -150,15 +152,17 @@ def make_collector(
         ray_address: the Ray cluster (``"ray"`` only; default ``RAY_ADDRESS`` or a local one).
     """
     if backend not in COLLECTOR_BACKENDS:
-        raise ValueError(f"collector.backend must be one of {list(COLLECTOR_BACKENDS)}, "
-                         f"got {backend!r}")  # fmt: skip
+        raise ValueError(
+            f"collector.backend must be one of {list(COLLECTOR_BACKENDS)}, got {backend!r}"
+        )
     if not isinstance(num_workers, int) or num_workers < 1:
         raise ValueError(f"collector.num_workers must be an integer >= 1, got {num_workers!r}")
     if isinstance(create_env, EnvBase):
         if backend != "local" or num_workers != 1:
-            raise ValueError("create_env must be an env factory (e.g. functools.partial of "
-                             "make_env) for worker processes or Ray, got an env instance"
-                             )  # fmt: skip
+            raise ValueError(
+                "create_env must be an env factory (e.g. functools.partial of "
+                "make_env) for worker processes or Ray, got an env instance"
+            )
         env, factories = create_env, None
     else:
         if seed is None:
@@ -168,27 +172,45 @@ def make_collector(
     scenes = (env if env is not None else factories[0]()).batch_size.numel()
     step = scenes * num_workers
     if frames_per_batch < step or frames_per_batch % step:
-        raise ValueError(f"collector.frames_per_batch must be a positive multiple of "
-                         f"{num_workers} worker(s) x {scenes} scenes = {step}, "
-                         f"got {frames_per_batch}")  # fmt: skip
+        raise ValueError(
+            f"collector.frames_per_batch must be a positive multiple of "
+            f"{num_workers} worker(s) x {scenes} scenes = {step}, "
+            f"got {frames_per_batch}"
+        )
     # our policies hold no recurrent state: nothing to append to the env (torchrl 0.14.1
     # otherwise warns that an InitTracker is missing, for any policy)
-    common = dict(frames_per_batch=frames_per_batch, total_frames=total_frames,
-                  init_random_frames=init_random_frames)  # fmt: skip
+    common = dict(
+        frames_per_batch=frames_per_batch,
+        total_frames=total_frames,
+        init_random_frames=init_random_frames,
+    )
     if env is not None:
-        return Collector(env, policy, device=device, auto_register_policy_transforms=False,
-                         **common)  # fmt: skip
+        return Collector(
+            env, policy, device=device, auto_register_policy_transforms=False, **common
+        )
     if backend == "local":
-        return MultiSyncCollector(factories, policy, device=device, postproc=_merge_workers,
-                                  auto_register_policy_transforms=False, **common)  # fmt: skip
+        return MultiSyncCollector(
+            factories,
+            policy,
+            device=device,
+            postproc=_merge_workers,
+            auto_register_policy_transforms=False,
+            **common,
+        )
     from torchrl.collectors.distributed import RayCollector
 
     collector = RayCollector(
-        factories, policy, sync=True, device=device, postproc=_merge_workers,
+        factories,
+        policy,
+        sync=True,
+        device=device,
+        postproc=_merge_workers,
         ray_init_config=ray_init_config(ray_address, num_workers),
-        remote_configs={"num_cpus": 1}, collector_class=Collector,
-        collector_kwargs={"auto_register_policy_transforms": False}, **common,
-    )  # fmt: skip
+        remote_configs={"num_cpus": 1},
+        collector_class=Collector,
+        collector_kwargs={"auto_register_policy_transforms": False},
+        **common,
+    )
     collector.update_policy_weights_(policy)  # the workers start from the learner's weights
     return collector
 
@@ -210,9 +232,14 @@ def collector_from_config(
     single = col["backend"] == "local" and col["num_workers"] == 1
     create = env if single and env is not None else env_factory(cfg)
     return make_collector(
-        create, policy, seed=cfg["seed"], frames_per_batch=col["frames_per_batch"],
+        create,
+        policy,
+        seed=cfg["seed"],
+        frames_per_batch=col["frames_per_batch"],
         total_frames=col["total_frames"] if total_frames is None else total_frames,
-        init_random_frames=init_random_frames, device=cfg["device"],
-        num_workers=col["num_workers"], backend=col["backend"],
+        init_random_frames=init_random_frames,
+        device=cfg["device"],
+        num_workers=col["num_workers"],
+        backend=col["backend"],
         ray_address=col.get("ray_address"),
-    )  # fmt: skip
+    )

@@ -106,8 +106,9 @@ def check_choices(cfg: Mapping) -> None:
             raise ValueError(f"{key} must be an integer >= 1, got {value!r}")
     for key in NON_NEGATIVE_INTEGERS:
         value = _get(cfg, key)
-        if value is not None and (isinstance(value, bool) or not isinstance(value, int)
-                                  or value < 0):  # fmt: skip
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, int) or value < 0
+        ):
             raise ValueError(f"{key} must be an integer >= 0, got {value!r}")
     selection = _get(cfg, "selection")
     if isinstance(selection, Mapping):
@@ -117,13 +118,18 @@ def check_choices(cfg: Mapping) -> None:
         check_residual(residual, _get(cfg, "proposer.alone_replan_every"))
     replan, horizon = _get(cfg, "proposer.alone_replan_every"), _get(cfg, "proposer.horizon")
     if replan is not None and horizon is not None and replan > horizon:
-        raise ValueError(f"proposer.alone_replan_every must be <= proposer.horizon ({horizon}): "
-                         f"a plan is one chunk; got {replan}")  # fmt: skip
+        raise ValueError(
+            f"proposer.alone_replan_every must be <= proposer.horizon ({horizon}): "
+            f"a plan is one chunk; got {replan}"
+        )
     total, random = _get(cfg, "collector.total_frames"), _get(cfg, "collector.init_random_frames")
     if total is not None and random and total <= random:
-        warnings.warn(f"collector.total_frames ({total}) <= collector.init_random_frames "
-                      f"({random}): the run collects random actions only and makes no gradient "
-                      "update", stacklevel=2)  # fmt: skip
+        warnings.warn(
+            f"collector.total_frames ({total}) <= collector.init_random_frames "
+            f"({random}): the run collects random actions only and makes no gradient "
+            "update",
+            stacklevel=2,
+        )
     if _get(cfg, "device") == "cuda":
         import torch
 
@@ -194,5 +200,7 @@ def check_endpoint(url: object, key: str, timeout_s: float = 5.0) -> None:
         return  # the server answered
     except (urllib.error.URLError, OSError) as error:
         reason = getattr(error, "reason", error)
-        raise ValueError(f"{key} {url} does not answer ({reason}): start the server, or use "
-                         "advisor.backend=rules (the offline advisor)") from None  # fmt: skip
+        raise ValueError(
+            f"{key} {url} does not answer ({reason}): start the server, or use "
+            "advisor.backend=rules (the offline advisor)"
+        ) from None

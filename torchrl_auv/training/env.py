@@ -65,9 +65,16 @@ def make_env(
     """
     if num_envs < 1:
         raise ValueError(f"num_envs must be >= 1, got {num_envs}")
-    return DataCollectionEnv(batch_size=[num_envs], sea_state=sea_state, controller=controller,
-                             rate_model=rate_model, seed=seed, max_steps=max_steps,
-                             device=device, compile_physics=compile_physics)  # fmt: skip
+    return DataCollectionEnv(
+        batch_size=[num_envs],
+        sea_state=sea_state,
+        controller=controller,
+        rate_model=rate_model,
+        seed=seed,
+        max_steps=max_steps,
+        device=device,
+        compile_physics=compile_physics,
+    )
 
 
 def make_history_env(sea_state: str = "ideal", *, history: int = 10, **env_kwargs):
@@ -98,10 +105,17 @@ def env_factory(cfg: Mapping) -> partial:
     """A picklable factory of the training env of ``cfg.env`` (``cfg.device``), called with
     ``seed=``: what worker processes and Ray actors build their envs with."""
     env = cfg["env"]
-    return partial(_scene_env, env["sea_state"], env_history(cfg), num_envs=env["num_envs"],
-                   controller=env["controller"], rate_model=env["rate_model"],
-                   max_steps=env["max_steps"], device=cfg["device"],
-                   compile_physics=bool(env.get("compile_physics", False)))  # fmt: skip
+    return partial(
+        _scene_env,
+        env["sea_state"],
+        env_history(cfg),
+        num_envs=env["num_envs"],
+        controller=env["controller"],
+        rate_model=env["rate_model"],
+        max_steps=env["max_steps"],
+        device=cfg["device"],
+        compile_physics=bool(env.get("compile_physics", False)),
+    )
 
 
 def env_from_config(cfg: Mapping):
@@ -116,11 +130,16 @@ def held_out_env(cfg: Mapping, num_envs: int, steps: int) -> Callable:
     ``cfg.device`` (where the run's policies live; ``cpu`` when absent); a picklable
     ``functools.partial``, for evaluation workers."""
     env = cfg["env"]
-    return partial(_held_out_scene, history=env_history(cfg), num_envs=num_envs,
-                   max_steps=steps, controller=env["controller"],
-                   device=cfg.get("device", "cpu"),
-                   rate_model=env["rate_model"],
-                   compile_physics=bool(env.get("compile_physics", False)))  # fmt: skip
+    return partial(
+        _held_out_scene,
+        history=env_history(cfg),
+        num_envs=num_envs,
+        max_steps=steps,
+        controller=env["controller"],
+        device=cfg.get("device", "cpu"),
+        rate_model=env["rate_model"],
+        compile_physics=bool(env.get("compile_physics", False)),
+    )
 
 
 def _held_out_scene(sea_state: str, seed: int, *, history: int, **kwargs):

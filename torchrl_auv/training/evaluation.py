@@ -40,8 +40,12 @@ __all__ = [
 POLICIES = ("expert", "lazy", "idle", "random", "exit")
 #: the per-scene metrics whose standard error over scenes a row carries as ``<name>_se``
 SE_METRICS = ("sdr_mbit", "ssn", "violation_rate", "cost_mean")
-TRACKING_METRICS = ("heading_error_mean", "heading_error_std", "depth_error_mean",
-                    "depth_error_std")  # fmt: skip
+TRACKING_METRICS = (
+    "heading_error_mean",
+    "heading_error_std",
+    "depth_error_mean",
+    "depth_error_std",
+)
 
 
 def exit_policy(env: DataCollectionEnv) -> Callable[[TensorDictBase], TensorDictBase]:
@@ -65,8 +69,13 @@ def make_policy(name: str, env: DataCollectionEnv):
     ``env.rollout``) or ``exit`` (:func:`exit_policy`)."""
     if name not in POLICIES:
         raise ValueError(f"policy must be one of {POLICIES}, got {name!r}")
-    return {"expert": expert_policy, "lazy": lazy_policy, "idle": idle_policy,
-            "random": random_policy, "exit": exit_policy}[name](env)  # fmt: skip
+    return {
+        "expert": expert_policy,
+        "lazy": lazy_policy,
+        "idle": idle_policy,
+        "random": random_policy,
+        "exit": exit_policy,
+    }[name](env)
 
 
 def _first_episode(rollout: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
@@ -107,8 +116,9 @@ def episode_stats(
     cost = rollout["next", "agents", "cost"][..., 0].double()  # [B, T, N]
     cost = torch.where(mask[..., None], cost, 0.0)
     terms = rollout["next", "cost_terms"]
-    term_totals = {k: torch.where(mask[..., None], terms[k].double(), 0.0).sum() for k in
-                   iout.COST_TERMS}  # fmt: skip
+    term_totals = {
+        k: torch.where(mask[..., None], terms[k].double(), 0.0).sum() for k in iout.COST_TERMS
+    }
     total = sum(term_totals.values())
     per_scene = {  # [B] each: their means are the row's values, their standard errors `_se`
         "sdr_mbit": metrics["sdr"].double(),
@@ -196,18 +206,29 @@ def evaluate(
     evaluated = [name for name, build in policies.items() if not isinstance(build, SameRowAs)]
     for name, build in policies.items():
         if isinstance(build, SameRowAs) and build.name not in evaluated:
-            raise ValueError(f"policies[{name!r}] is the row of {build.name!r}, which is not "
-                             f"an evaluated row of policies (those are {evaluated})")  # fmt: skip
-    jobs = [(sea, name, build) for sea in sea_states for name, build in policies.items()
-            if not isinstance(build, SameRowAs)]  # fmt: skip
-    bar = tqdm.tqdm(total=len(jobs) * steps, unit="decision", desc="evaluation",
-                    disable=not progress)  # fmt: skip
+            raise ValueError(
+                f"policies[{name!r}] is the row of {build.name!r}, which is not "
+                f"an evaluated row of policies (those are {evaluated})"
+            )
+    jobs = [
+        (sea, name, build)
+        for sea in sea_states
+        for name, build in policies.items()
+        if not isinstance(build, SameRowAs)
+    ]
+    bar = tqdm.tqdm(
+        total=len(jobs) * steps, unit="decision", desc="evaluation", disable=not progress
+    )
     with bar:
         rows = evaluate_rows(make_env, jobs, seed=seed, steps=steps, workers=workers, bar=bar)
     found = {(row["sea_state"], row["policy"]): row for row in rows}
-    return [found[sea, name] if not isinstance(build, SameRowAs)
-            else {**found[sea, build.name], "policy": name}
-            for sea in sea_states for name, build in policies.items()]  # fmt: skip
+    return [
+        found[sea, name]
+        if not isinstance(build, SameRowAs)
+        else {**found[sea, build.name], "policy": name}
+        for sea in sea_states
+        for name, build in policies.items()
+    ]
 
 
 def expert_policy(env: DataCollectionEnv) -> ScriptedExpert:

@@ -32,8 +32,16 @@ __all__ = ["RowWorker", "evaluate_row", "evaluate_rows"]
 _TICKS = None  # a worker's shared decision counter (set by _start_worker)
 
 
-def evaluate_row(make_env, build, sea_state: str, name: str, *, seed: int, steps: int,
-                 tick: Callable | None = None) -> dict:  # fmt: skip
+def evaluate_row(
+    make_env,
+    build,
+    sea_state: str,
+    name: str,
+    *,
+    seed: int,
+    steps: int,
+    tick: Callable | None = None,
+) -> dict:
     """One row: ``build`` (a policy module, or ``env -> policy``) on ``make_env(sea_state,
     seed)`` rolled out for ``steps`` decisions with
     deterministic actions, torch's global generator seeded with ``seed`` (forked: restored
@@ -42,11 +50,15 @@ def evaluate_row(make_env, build, sea_state: str, name: str, *, seed: int, steps
 
     env = make_env(sea_state, seed)
     policy = build if isinstance(build, torch.nn.Module) else build(env)
-    with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad(), \
-            torch.random.fork_rng():  # fmt: skip
+    with (
+        set_exploration_type(ExplorationType.DETERMINISTIC),
+        torch.no_grad(),
+        torch.random.fork_rng(),
+    ):
         torch.manual_seed(seed)  # random actions and proposals: seeded too
-        stats = episode_stats(env, policy, steps,
-                              callback=None if tick is None else lambda *_: tick())  # fmt: skip
+        stats = episode_stats(
+            env, policy, steps, callback=None if tick is None else lambda *_: tick()
+        )
     return {"sea_state": sea_state, "policy": name, **stats}
 
 
@@ -73,20 +85,23 @@ def _dumps(what: str, obj) -> bytes:
         ) from error
 
 
-def _pickled_row(make_env, policy_bytes: bytes, sea_state: str, name: str, seed: int,
-                 steps: int) -> tuple[dict, float]:  # fmt: skip
+def _pickled_row(
+    make_env, policy_bytes: bytes, sea_state: str, name: str, seed: int, steps: int
+) -> tuple[dict, float]:
     """In a worker: one row of a pickled policy and the seconds it took; with a shared
     counter (:func:`evaluate_rows`), every decision counted."""
     began, tick = time.perf_counter(), None if _TICKS is None else _tick
-    row = evaluate_row(make_env, pickle.loads(policy_bytes), sea_state, name, seed=seed,
-                       steps=steps, tick=tick)  # fmt: skip
+    row = evaluate_row(
+        make_env, pickle.loads(policy_bytes), sea_state, name, seed=seed, steps=steps, tick=tick
+    )
     if tick is not None:
         tick()  # the rollout's callback skips the last decision
     return row, time.perf_counter() - began
 
 
-def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, workers: int,
-                  bar=None) -> list[dict]:  # fmt: skip
+def evaluate_rows(
+    make_env, jobs: Sequence[tuple], *, seed: int, steps: int, workers: int, bar=None
+) -> list[dict]:
     """``jobs``: ``(sea_state, name, build)``; the rows in that order (module docstring).
     ``bar``: a tqdm bar advanced by every decision of every row."""
     if workers == 1 or len(jobs) <= 1:
@@ -95,8 +110,9 @@ def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, wor
             if bar is not None:
                 bar.set_postfix_str(f"{sea_state} {name}")
             tick = None if bar is None else lambda: bar.update()
-            rows.append(evaluate_row(make_env, build, sea_state, name, seed=seed,
-                                     steps=steps, tick=tick))  # fmt: skip
+            rows.append(
+                evaluate_row(make_env, build, sea_state, name, seed=seed, steps=steps, tick=tick)
+            )
             if bar is not None:
                 bar.update(len(rows) * steps - bar.n)  # the callback skips the last decision
         return rows
@@ -105,10 +121,13 @@ def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, wor
     context = multiprocessing.get_context("spawn")
     ticks = context.Value("q", 0)
     start = (torch.get_num_threads(), ticks, os.getpid())
-    with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context,
-                             initializer=_start_worker, initargs=start) as pool:  # fmt: skip
-        futures = [pool.submit(_pickled_row, make_env, pickled[name], sea_state, name, seed,
-                               steps) for sea_state, name, _ in jobs]  # fmt: skip
+    with ProcessPoolExecutor(
+        min(workers, len(jobs)), mp_context=context, initializer=_start_worker, initargs=start
+    ) as pool:
+        futures = [
+            pool.submit(_pickled_row, make_env, pickled[name], sea_state, name, seed, steps)
+            for sea_state, name, _ in jobs
+        ]
         pending = set(futures)
         while pending:
             done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
@@ -117,8 +136,9 @@ def evaluate_rows(make_env, jobs: Sequence[tuple], *, seed: int, steps: int, wor
                 pool.shutdown(wait=False, cancel_futures=True)
                 raise failed[0].exception()
             if bar is not None:
-                bar.set_postfix_str(f"{len(jobs) - len(pending)}/{len(jobs)} rows, "
-                                    f"{workers} workers")  # fmt: skip
+                bar.set_postfix_str(
+                    f"{len(jobs) - len(pending)}/{len(jobs)} rows, {workers} workers"
+                )
                 bar.update(ticks.value - bar.n)
         return [future.result()[0] for future in futures]
 
@@ -139,17 +159,29 @@ class RowWorker:
         _dumps("make_env", make_env)
         context = multiprocessing.get_context("spawn")
         threads, parent = torch.get_num_threads(), os.getpid()
-        self.pool = ProcessPoolExecutor(1, mp_context=context, initializer=_start_worker,
-                                        initargs=(threads, None, parent))  # fmt: skip
+        self.pool = ProcessPoolExecutor(
+            1, mp_context=context, initializer=_start_worker, initargs=(threads, None, parent)
+        )
         self.job = (make_env, sea_state, seed, steps)
         self.pending: list[tuple[int, object]] = []
 
     def submit(self, step: int, policy) -> None:
         """Evaluate ``policy`` as it is now, labelled ``step``."""
         make_env, sea_state, seed, steps = self.job
-        self.pending.append((step, self.pool.submit(_pickled_row, make_env,
-                                                    _dumps("the policy", policy), sea_state,
-                                                    "policy", seed, steps)))  # fmt: skip
+        self.pending.append(
+            (
+                step,
+                self.pool.submit(
+                    _pickled_row,
+                    make_env,
+                    _dumps("the policy", policy),
+                    sea_state,
+                    "policy",
+                    seed,
+                    steps,
+                ),
+            )
+        )
 
     def results(self, wait: bool = False) -> list[tuple[int, dict, float]]:
         """``(step, row, seconds)`` of the rows finished so far (``wait``: of every row

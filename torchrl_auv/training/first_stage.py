@@ -112,8 +112,12 @@ FIRST_STAGE_DEFAULTS = {
     "dagger_lr": 3.0e-4,
 }
 #: The acting keys, applied to a loaded proposer (they do not change its weights).
-ACTING_DEFAULTS = {"num_candidates": 5, "num_inference_steps": 50, "sampler": "ddpm",
-                   "compile": False}  # fmt: skip
+ACTING_DEFAULTS = {
+    "num_candidates": 5,
+    "num_inference_steps": 50,
+    "sampler": "ddpm",
+    "compile": False,
+}
 
 
 def _plain(cfg) -> dict:
@@ -123,9 +127,21 @@ def _plain(cfg) -> dict:
 
 
 #: First-stage keys that must be ints >= 1, and those that may be 0.
-_COUNTS = ("demo_batches", "demo_episodes", "demo_steps", "horizon", "hidden", "cond_dim",
-           "depth", "num_train_steps", "pretrain_steps", "batch_size", "dagger_batches",
-           "dagger_inference_steps", "dagger_steps")  # fmt: skip
+_COUNTS = (
+    "demo_batches",
+    "demo_episodes",
+    "demo_steps",
+    "horizon",
+    "hidden",
+    "cond_dim",
+    "depth",
+    "num_train_steps",
+    "pretrain_steps",
+    "batch_size",
+    "dagger_batches",
+    "dagger_inference_steps",
+    "dagger_steps",
+)
 _COUNTS_OR_ZERO = ("history", "dagger_rounds")
 
 
@@ -229,9 +245,11 @@ def _check_structure(proposer: DiffusionProposer, p: Mapping, source: Path) -> N
 
 def _apply_acting(proposer: DiffusionProposer, p: Mapping) -> DiffusionProposer:
     acting = {**ACTING_DEFAULTS, **{k: p[k] for k in ACTING_DEFAULTS if k in p}}
-    proposer.configure_sampling(num_candidates=acting["num_candidates"],
-                                num_inference_steps=acting["num_inference_steps"],
-                                sampler=acting["sampler"])  # fmt: skip
+    proposer.configure_sampling(
+        num_candidates=acting["num_candidates"],
+        num_inference_steps=acting["num_inference_steps"],
+        sampler=acting["sampler"],
+    )
     proposer.compile = bool(acting["compile"])
     return proposer
 
@@ -256,8 +274,12 @@ def first_stage_from_config(
         if (path.parent / VALUES_FILE).exists():
             check_values(path.parent, values)
         else:
-            log.warning("proposer.path %s has no %s beside it: its first-stage values cannot "
-                        "be checked against this config", path, VALUES_FILE)  # fmt: skip
+            log.warning(
+                "proposer.path %s has no %s beside it: its first-stage values cannot "
+                "be checked against this config",
+                path,
+                VALUES_FILE,
+            )
         proposer = DiffusionProposer.load(path)
         _check_structure(proposer, p, path)
         proposer = _apply_acting(proposer, p)
@@ -276,11 +298,13 @@ def first_stage_from_config(
     # stage and one that reuses it continue from the same random state (the same numbers)
     with torch.random.fork_rng():
         folder, built = cache.get_or_build(
-            name, values,
-            lambda into: build_first_stage(into, values, workers=int(p.get("demo_workers", 1)),
-                                           plot_loss=plot_loss),
+            name,
+            values,
+            lambda into: build_first_stage(
+                into, values, workers=int(p.get("demo_workers", 1)), plot_loss=plot_loss
+            ),
             resumable=True,  # a build cut short goes on from its last finished phase
-        )  # fmt: skip
+        )
     seconds = time.perf_counter() - start
     proposer = _apply_acting(DiffusionProposer.load(folder / "proposer.pt"), p)
     metrics = json.loads((folder / "metrics.json").read_text())

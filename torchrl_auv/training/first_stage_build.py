@@ -47,12 +47,16 @@ def untrained_proposer(
     model and schedule of ``model`` (the first-stage values' ``"model"`` group, or a recipe's
     ``proposer`` config group, which has the same keys)."""
     return DiffusionProposer(
-        DiffusionProposer.conditioning_dim(obs_dim, act_dim, history), act_dim,
+        DiffusionProposer.conditioning_dim(obs_dim, act_dim, history),
+        act_dim,
         state_key=OBSERVATION,
-        history_key=(AGENTS, "history"), horizon=horizon, noise_model=model["noise_model"],
-        noise_model_kwargs=_noise_model_kwargs(model), num_train_steps=model["num_train_steps"],
+        history_key=(AGENTS, "history"),
+        horizon=horizon,
+        noise_model=model["noise_model"],
+        noise_model_kwargs=_noise_model_kwargs(model),
+        num_train_steps=model["num_train_steps"],
         schedule=model["schedule"],
-    )  # fmt: skip
+    )
 
 
 def _dagger_policy(proposer: DiffusionProposer, env) -> ProposerAlone:
@@ -99,8 +103,9 @@ def _record(folder: Path, progress: dict) -> None:
     os.replace(tmp, folder / PROGRESS_FILE)
 
 
-def _data(folder: Path, name: str, collect: Callable[[], TensorDictBase],
-          metadata: Mapping) -> tuple[TensorDictBase, bool]:  # fmt: skip
+def _data(
+    folder: Path, name: str, collect: Callable[[], TensorDictBase], metadata: Mapping
+) -> tuple[TensorDictBase, bool]:
     """The samples saved under ``folder/name`` by a build cut short (``metadata.json`` is
     written last: its presence means they are whole), else collected and saved. Returns
     ``(data, collected)``."""
@@ -136,13 +141,24 @@ def build_first_stage(
     demo, model, train = values["demonstrations"], values["model"], values["pretraining"]
     dagger = values["dagger"]
     collect = partial(
-        collect_demonstration_batches, workers=workers, seed=values["seed"],
-        env="data_collection", episodes=demo["demo_episodes"], max_steps=demo["demo_steps"],
-        horizon=demo["horizon"], history=demo["history"], sea_state=values["sea_state"],
-        controller=values["controller"], rate_model=values["rate_model"],
-    )  # fmt: skip
-    progress = {"done": [], "metrics": {}, "phases": [],
-                "curve": {"phase": [], "step": [], "split": [], "loss": []}}  # fmt: skip
+        collect_demonstration_batches,
+        workers=workers,
+        seed=values["seed"],
+        env="data_collection",
+        episodes=demo["demo_episodes"],
+        max_steps=demo["demo_steps"],
+        horizon=demo["horizon"],
+        history=demo["history"],
+        sea_state=values["sea_state"],
+        controller=values["controller"],
+        rate_model=values["rate_model"],
+    )
+    progress = {
+        "done": [],
+        "metrics": {},
+        "phases": [],
+        "curve": {"phase": [], "step": [], "split": [], "loss": []},
+    }
     if (folder / PROGRESS_FILE).exists():
         progress = json.loads((folder / PROGRESS_FILE).read_text())
     if progress["done"]:
@@ -151,16 +167,16 @@ def build_first_stage(
     phases: list[tuple[int, str]] = [tuple(phase) for phase in progress["phases"]]
 
     start = time.perf_counter()
-    data, collected = _data(folder, "demonstrations", lambda: collect(demo["demo_batches"]),
-                            values)  # fmt: skip
+    data, collected = _data(folder, "demonstrations", lambda: collect(demo["demo_batches"]), values)
     if collected:
         metrics["demonstrations_s"] = time.perf_counter() - start
     metrics.setdefault("samples", len(data))
     metrics.setdefault("overridden_samples", int(data["overridden"].sum()))
     _record(folder, progress)
     obs_dim, act_dim = data["observation"].shape[-1], data["action"].shape[-1]
-    proposer = untrained_proposer(obs_dim, act_dim, history=demo["history"],
-                                  horizon=demo["horizon"], model=model)  # fmt: skip
+    proposer = untrained_proposer(
+        obs_dim, act_dim, history=demo["history"], horizon=demo["horizon"], model=model
+    )
 
     def fit(phase: str, steps: int, lr: float, first: bool) -> float:
         """Train on ``data`` (fitting the state standardisation the first time); add the
@@ -176,13 +192,20 @@ def build_first_stage(
         with torch.random.fork_rng():  # the replay buffer's sampler draws from the global RNG
             torch.manual_seed(values["seed"] + len(phases))
             result = pretrain_proposer(
-                proposer, _nested(data), steps=steps, batch_size=train["batch_size"], lr=lr,
-                lr_schedule=train["lr_schedule"], weight_decay=train["weight_decay"],
-                ema_decay=train["ema_decay"], normalize_state=first and
-                train["normalize_state"], heldout_fraction=train["heldout_fraction"],
-                seed=values["seed"], log_every=max(1, steps // 100),
+                proposer,
+                _nested(data),
+                steps=steps,
+                batch_size=train["batch_size"],
+                lr=lr,
+                lr_schedule=train["lr_schedule"],
+                weight_decay=train["weight_decay"],
+                ema_decay=train["ema_decay"],
+                normalize_state=first and train["normalize_state"],
+                heldout_fraction=train["heldout_fraction"],
+                seed=values["seed"],
+                log_every=max(1, steps // 100),
                 eval_every=max(1, steps // 10),
-            )  # fmt: skip
+            )
         metrics[f"{phase}_s"] = time.perf_counter() - began
         metrics[f"{phase}_heldout_loss"] = result.heldout_loss
         for split, steps_, losses in (
@@ -194,8 +217,14 @@ def build_first_stage(
                 curve["step"].append(offset + step)
                 curve["split"].append(split)
                 curve["loss"].append(value)
-        log.info("first stage: %s, %d samples, %d steps in %.0f s, held-out loss %.4f", phase,
-                 len(data), steps, metrics[f"{phase}_s"], result.heldout_loss)  # fmt: skip
+        log.info(
+            "first stage: %s, %d samples, %d steps in %.0f s, held-out loss %.4f",
+            phase,
+            len(data),
+            steps,
+            metrics[f"{phase}_s"],
+            result.heldout_loss,
+        )
         _save(proposer, _phase_proposer(folder, phase))
         progress["done"].append(phase)
         progress["phases"] = [list(p) for p in phases]
@@ -208,16 +237,21 @@ def build_first_stage(
         _save(proposer, folder / "proposer_bc.pt")  # before DAgger: behaviour cloning alone
     for r in range(1, dagger["dagger_rounds"] + 1):
         actor = copy.deepcopy(proposer)
-        actor.configure_sampling(num_inference_steps=dagger["dagger_inference_steps"],
-                                 sampler="ddim")  # fmt: skip
+        actor.configure_sampling(
+            num_inference_steps=dagger["dagger_inference_steps"], sampler="ddim"
+        )
         start = time.perf_counter()
         first_batch = demo["demo_batches"] + (r - 1) * dagger["dagger_batches"]
         visited, collected = _data(
-            folder, f"dagger{r}",
-            lambda: collect(dagger["dagger_batches"], first_batch=first_batch,  # noqa: B023
-                            policy=partial(_dagger_policy, actor)),  # noqa: B023
+            folder,
+            f"dagger{r}",
+            lambda first_batch=first_batch, actor=actor: collect(
+                dagger["dagger_batches"],
+                first_batch=first_batch,
+                policy=partial(_dagger_policy, actor),
+            ),
             {**values, "round": r},
-        )  # fmt: skip
+        )
         if collected:
             metrics[f"dagger{r}_collection_s"] = time.perf_counter() - start
         metrics.setdefault(f"dagger{r}_samples", len(visited))
@@ -228,18 +262,28 @@ def build_first_stage(
     with open(folder / "pretrain_loss.csv", "w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(("step", "split", "loss", "phase"))
-        writer.writerows(zip(curve["step"], curve["split"], curve["loss"], curve["phase"],
-                             strict=True))  # fmt: skip
+        writer.writerows(
+            zip(curve["step"], curve["split"], curve["loss"], curve["phase"], strict=True)
+        )
     if plot_loss is not None:
         split = [s == "train" for s in curve["split"]]
         pick = lambda key, keep: [v for v, k in zip(curve[key], split, strict=True) if k == keep]  # noqa: E731
-        plot_loss(pick("step", True), pick("loss", True), folder / "loss.png",
-                  heldout_steps=pick("step", False), heldout_losses=pick("loss", False),
-                  phases=phases)  # fmt: skip
+        plot_loss(
+            pick("step", True),
+            pick("loss", True),
+            folder / "loss.png",
+            heldout_steps=pick("step", False),
+            heldout_losses=pick("loss", False),
+            phases=phases,
+        )
     losses = [v for v, s in zip(curve["loss"], curve["split"], strict=True) if s == "train"]
-    metrics.update(final_training_loss=losses[-1], training_samples=len(data),
-                   heldout_loss=metrics[f"dagger{dagger['dagger_rounds']}_heldout_loss"]
-                   if dagger["dagger_rounds"] else metrics["pretraining_heldout_loss"])  # fmt: skip
+    metrics.update(
+        final_training_loss=losses[-1],
+        training_samples=len(data),
+        heldout_loss=metrics[f"dagger{dagger['dagger_rounds']}_heldout_loss"]
+        if dagger["dagger_rounds"]
+        else metrics["pretraining_heldout_loss"],
+    )
     (folder / "metrics.json").write_text(json.dumps(metrics, indent=2))
     for phase, _ in phases:  # the build's own records: the artefact keeps what it always held
         _phase_proposer(folder, phase).unlink(missing_ok=True)

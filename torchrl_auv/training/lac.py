@@ -47,8 +47,17 @@ __all__ = [
 ]
 
 #: The loss outputs a recipe logs (``train/<key>``; the task critic's with ``cost="stability"``).
-LAC_LOGGED_KEYS = ("loss_actor", "loss_lyapunov", "lambda", "beta", "violation_rate", "delta_l",
-                   "loss_qvalue", "qvalue", "residual")  # fmt: skip
+LAC_LOGGED_KEYS = (
+    "loss_actor",
+    "loss_lyapunov",
+    "lambda",
+    "beta",
+    "violation_rate",
+    "delta_l",
+    "loss_qvalue",
+    "qvalue",
+    "residual",
+)
 
 
 #: ``lyapunov.cost`` choices: which cost the Lyapunov critic learns (the loss's docstring)
@@ -91,16 +100,32 @@ def make_lac_loss(
     qvalue = make_q_critic(env, hidden, layer_norm) if cost == "stability" else None
     residual = {} if residual_coef is None else {"coef": residual_coef}
     loss = (ResidualLACLoss if residual else LyapunovActorCriticLoss)(
-        actor, critic, form=form, stability_weight=stability_weight, lambda_max=lambda_max,
-        target_entropy=-float(observation_action_dims(env)[1]), loss_function=loss_function,
-        qvalue_network=qvalue, backup=backup, rule=rule, **residual,
-    )  # fmt: skip
+        actor,
+        critic,
+        form=form,
+        stability_weight=stability_weight,
+        lambda_max=lambda_max,
+        target_entropy=-float(observation_action_dims(env)[1]),
+        loss_function=loss_function,
+        qvalue_network=qvalue,
+        backup=backup,
+        rule=rule,
+        **residual,
+    )
     lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
-    loss.set_keys(action=ACTION, reward=(AGENTS, "reward"), cost=lyapunov_cost,
-                  task_cost=(AGENTS, "cost"), done=(AGENTS, "done"),
-                  terminated=(AGENTS, "terminated"), value=LYAPUNOV_RAW, qvalue=Q_VALUE,
-                  observation=OBSERVATION, candidates=(AGENTS, "proposer", "first_actions"),
-                  anchor=(AGENTS, "proposer", "medoid"))  # fmt: skip
+    loss.set_keys(
+        action=ACTION,
+        reward=(AGENTS, "reward"),
+        cost=lyapunov_cost,
+        task_cost=(AGENTS, "cost"),
+        done=(AGENTS, "done"),
+        terminated=(AGENTS, "terminated"),
+        value=LYAPUNOV_RAW,
+        qvalue=Q_VALUE,
+        observation=OBSERVATION,
+        candidates=(AGENTS, "proposer", "first_actions"),
+        anchor=(AGENTS, "proposer", "medoid"),
+    )
     loss.make_value_estimator(gamma=gamma)
     return loss.to(next(actor.parameters()).device)
 
@@ -114,11 +139,12 @@ def lac_optimisers(
     if loss.qvalue_network is not None:
         critics += list(loss.qvalue_network_params.parameters())
     return {
-        "actor_optim": torch.optim.Adam(loss.actor_network_params.parameters(),
-                                        lr=optim["actor_lr"]),
+        "actor_optim": torch.optim.Adam(
+            loss.actor_network_params.parameters(), lr=optim["actor_lr"]
+        ),
         "critic_optim": torch.optim.Adam(critics, lr=optim["critic_lr"]),
         "dual_optim": torch.optim.Adam([loss.log_lambda, loss.log_beta], lr=optim["dual_lr"]),
-    }  # fmt: skip
+    }
 
 
 def feedback_batch(data: TensorDictBase) -> TensorDict:
@@ -191,8 +217,9 @@ def advisor_from_config(cfg: Mapping):
     if a["backend"] == "fixed":
         return advisors.FixedAdvisor()
     if a["backend"] == "openai":
-        return advisors.OpenAICompatibleAdvisor(a["base_url"], a["model"],
-                                                api_key_env=a["api_key_env"])  # fmt: skip
+        return advisors.OpenAICompatibleAdvisor(
+            a["base_url"], a["model"], api_key_env=a["api_key_env"]
+        )
     raise ValueError(f"advisor.backend must be 'rules', 'fixed' or 'openai', got {a['backend']!r}")
 
 
@@ -207,14 +234,18 @@ class AdvisorLoop:
     cooldown resume with it.
     """
 
-    def __init__(self, cfg: Mapping, run_dir: str | Path, logger,
-                 loss: LyapunovActorCriticLoss) -> None:  # fmt: skip
+    def __init__(
+        self, cfg: Mapping, run_dir: str | Path, logger, loss: LyapunovActorCriticLoss
+    ) -> None:
         a = cfg["advisor"]
         self.cfg, self.loss = a, loss
         self.trigger = advisors.AdvisorTrigger(
-            advisor_from_config(cfg), a["task"], log_path=Path(run_dir) / "advisor.jsonl",
-            cooldown=a["cooldown"], logger=logger,
-        )  # fmt: skip
+            advisor_from_config(cfg),
+            a["task"],
+            log_path=Path(run_dir) / "advisor.jsonl",
+            cooldown=a["cooldown"],
+            logger=logger,
+        )
         self.window: list = []
         self.outputs: list = []
 
@@ -229,8 +260,10 @@ class AdvisorLoop:
         self.window = [*self.window, feedback_batch(data)][-window:]
         self.outputs = [*self.outputs, out][-window:]  # Learner.step's output: detached
         feedback = advisors.feedback_from_training(
-            self.window, self.outputs, position_indices=self.cfg["position_indices"],
+            self.window,
+            self.outputs,
+            position_indices=self.cfg["position_indices"],
             velocity_indices=self.cfg["velocity_indices"],
-        )  # fmt: skip
+        )
         self.trigger.step(frames, feedback, self.loss)
         return {"train/form_index": advisors.FORM_ORDER.index(self.loss.spec.form)}

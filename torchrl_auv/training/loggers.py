@@ -48,8 +48,12 @@ def make_logger(
     kwargs = {}
     if backend == "wandb":
         # TorchRL's WandbLogger writes under its log_dir (logger_name) already
-        kwargs["wandb_kwargs"] = {"offline": offline, "project": project, "config": config or {},
-                                  "group": group}  # fmt: skip
+        kwargs["wandb_kwargs"] = {
+            "offline": offline,
+            "project": project,
+            "config": config or {},
+            "group": group,
+        }
     return get_logger(backend, logger_name=str(run_dir), experiment_name=exp_name, **kwargs)
 
 
@@ -58,8 +62,15 @@ def logger_from_config(cfg: DictConfig, run_dir: Path):
     the resolved config and joins the group ``logger.group`` (a sweep's name)."""
     lg = cfg.logger
     config = OmegaConf.to_container(cfg, resolve=True)
-    return make_logger(lg.backend, run_dir, exp_name=lg.exp_name, project=lg.project,
-                       offline=lg.offline, config=config, group=lg.get("group"))  # fmt: skip
+    return make_logger(
+        lg.backend,
+        run_dir,
+        exp_name=lg.exp_name,
+        project=lg.project,
+        offline=lg.offline,
+        config=config,
+        group=lg.get("group"),
+    )
 
 
 def log_metrics(

@@ -46,12 +46,17 @@ def make_actor(env: DataCollectionEnv, hidden: Sequence[int] = (256, 256)) -> Pr
     """
     obs_dim, act_dim = observation_action_dims(env)
     net = nn.Sequential(
-        MLP(in_features=obs_dim, out_features=2 * act_dim, num_cells=list(hidden),
-            activation_class=nn.ReLU),
+        MLP(
+            in_features=obs_dim,
+            out_features=2 * act_dim,
+            num_cells=list(hidden),
+            activation_class=nn.ReLU,
+        ),
         NormalParamExtractor(),
-    )  # fmt: skip
-    module = TensorDictModule(net, in_keys=[OBSERVATION], out_keys=[(AGENTS, "loc"),
-                                                                    (AGENTS, "scale")])  # fmt: skip
+    )
+    module = TensorDictModule(
+        net, in_keys=[OBSERVATION], out_keys=[(AGENTS, "loc"), (AGENTS, "scale")]
+    )
     spec = env.full_action_spec[ACTION]
     return ProbabilisticActor(
         module,

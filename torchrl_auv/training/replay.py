@@ -74,5 +74,9 @@ def make_replay_buffer(
 def buffer_from_config(cfg: Mapping, run_dir: str | Path) -> TensorDictReplayBuffer:
     """The replay buffer of ``cfg.replay_buffer`` (memmap under ``run_dir/replay``)."""
     rb = cfg["replay_buffer"]
-    return make_replay_buffer(rb["size"], batch_size=rb["batch_size"], storage=rb["storage"],
-                              scratch_dir=Path(run_dir) / "replay")  # fmt: skip
+    return make_replay_buffer(
+        rb["size"],
+        batch_size=rb["batch_size"],
+        storage=rb["storage"],
+        scratch_dir=Path(run_dir) / "replay",
+    )

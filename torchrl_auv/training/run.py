@@ -86,11 +86,11 @@ def start_run(cfg: DictConfig) -> Path:
             raise ValueError(
                 f"run_dir {run_dir} already holds a run's checkpoints; pass "
                 f"resume={run_dir} to continue it, or choose a new run_dir"
-                if published else
-                f"run_dir {run_dir} holds a run stopped before its first checkpoint was "
+                if published
+                else f"run_dir {run_dir} holds a run stopped before its first checkpoint was "
                 f"complete; pass resume={run_dir} to start it again from frame 0 in that "
                 "folder, or choose a new run_dir"
-            )  # fmt: skip
+            )
         if cfg.resume and not checkpoints.is_dir():
             raise ValueError(f"resume={run_dir} holds no checkpoints/ to continue from")
     except Exception:
@@ -114,24 +114,34 @@ def prepare_resume(
     if buffer is not None and cfg.checkpoint.get("replay_buffer", False):
         modules = {**modules, "replay_buffer": buffer}
     config = OmegaConf.to_container(cfg, resolve=True)
-    checkpoint, rotation = make_checkpoint(run_dir, modules={**modules, "config": config},
-                                           progress=progress,
-                                           keep_last=cfg.checkpoint.keep_last)  # fmt: skip
+    checkpoint, rotation = make_checkpoint(
+        run_dir,
+        modules={**modules, "config": config},
+        progress=progress,
+        keep_last=cfg.checkpoint.keep_last,
+    )
     frames = 0
     if cfg.resume:
         frames, values = resume_latest(run_dir, checkpoint, progress)
         if values:
             log.info("resumed %s at %d frames", run_dir, frames)
             if buffer is not None and "replay_buffer" not in modules:
-                log.warning("resumed without the replay buffer (checkpoint.replay_buffer=false): "
-                            "training goes on from an empty buffer, not the one the run had "
-                            "at %d frames", frames)  # fmt: skip
+                log.warning(
+                    "resumed without the replay buffer (checkpoint.replay_buffer=false): "
+                    "training goes on from an empty buffer, not the one the run had "
+                    "at %d frames",
+                    frames,
+                )
         else:  # stopped before its first checkpoint was complete: nothing to load
-            log.warning("%s has no complete checkpoint yet: starting it again from frame 0",
-                        run_dir)  # fmt: skip
+            log.warning(
+                "%s has no complete checkpoint yet: starting it again from frame 0", run_dir
+            )
         stored = values.get("config", {})
-        changed = sorted(k for k in config if k not in ("resume", "run_dir")
-                         and k in stored and stored[k] != config[k])  # fmt: skip
+        changed = sorted(
+            k
+            for k in config
+            if k not in ("resume", "run_dir") and k in stored and stored[k] != config[k]
+        )
         if changed:
             log.warning("resumed with a config that differs from the checkpoint's in %s", changed)
     total = OmegaConf.select(cfg, "collector.total_frames", default=None)
@@ -157,13 +167,23 @@ def finish_run(
     eval_env = held_out_env(cfg, cfg.eval.num_envs, cfg.eval.steps)
     began = time.perf_counter()
     workers = OmegaConf.select(cfg, "eval.workers", default=None) or 1
-    rows = evaluate(eval_env, policies, cfg.eval.sea_states, seed=cfg.eval.seed,
-                    steps=cfg.eval.steps, progress=True, workers=workers)  # fmt: skip
+    rows = evaluate(
+        eval_env,
+        policies,
+        cfg.eval.sea_states,
+        seed=cfg.eval.seed,
+        steps=cfg.eval.steps,
+        progress=True,
+        workers=workers,
+    )
     facts = {**facts, "evaluation wall time (s)": time.perf_counter() - began}
     summary = write_summary(run_dir, title=title, rows=rows, facts=facts)
     for row in rows:
-        log_metrics(logger, {f"eval/{row['sea_state']}/{row['policy']}/{key}": row[key]
-                             for key in SUMMARY_COLUMNS}, step)  # fmt: skip
+        log_metrics(
+            logger,
+            {f"eval/{row['sea_state']}/{row['policy']}/{key}": row[key] for key in SUMMARY_COLUMNS},
+            step,
+        )
     close_logger(logger)
     write_eval(rows, run_dir)  # last: eval.csv marks a finished run
     release_run_folder(run_dir)
@@ -208,9 +228,14 @@ class Run:
         if self.checkpoint is None:
             raise RuntimeError("call Run.restore(modules) before Run.track()")
         self.tracker = RunTracker(
-            self.cfg, self.dir, self.logger, self.progress, self.checkpoint, self.rotation,
+            self.cfg,
+            self.dir,
+            self.logger,
+            self.progress,
+            self.checkpoint,
+            self.rotation,
             eval_policy=eval_policy,
-        )  # fmt: skip
+        )
         return self.tracker
 
     def step(self, data, metrics: dict[str, float], spec=None) -> None:
@@ -229,8 +254,15 @@ class Run:
     ) -> Path:
         """The final evaluation on held-out scenes, ``eval.csv``, ``summary.md``; closes the
         logger (:func:`finish_run`). Returns the summary's path."""
-        return finish_run(self.cfg, self.dir, self.logger, policies, title=title, facts=facts,
-                          step=self.progress.frames)  # fmt: skip
+        return finish_run(
+            self.cfg,
+            self.dir,
+            self.logger,
+            policies,
+            title=title,
+            facts=facts,
+            step=self.progress.frames,
+        )
 
     def _tracker(self) -> RunTracker:
         if self.tracker is None:

@@ -63,14 +63,26 @@ def make_sac_loss(
     """
     residual = {} if residual_coef is None else {"coef": residual_coef}
     loss = (ResidualSACLoss if residual else CandidateBackupSACLoss)(
-        actor_network=actor, qvalue_network=critic, num_qvalue_nets=num_qvalue_nets,
-        alpha_init=alpha_init, target_entropy=-float(observation_action_dims(env)[1]),
-        delay_qvalue=True, loss_function=loss_function, backup=backup, rule=rule, **residual,
-    )  # fmt: skip
-    loss.set_keys(action=ACTION, state_action_value=Q_VALUE, reward=(AGENTS, "reward"),
-                  done=(AGENTS, "done"), terminated=(AGENTS, "terminated"),
-                  candidates=(AGENTS, "proposer", "first_actions"),
-                  anchor=(AGENTS, "proposer", "medoid"))  # fmt: skip
+        actor_network=actor,
+        qvalue_network=critic,
+        num_qvalue_nets=num_qvalue_nets,
+        alpha_init=alpha_init,
+        target_entropy=-float(observation_action_dims(env)[1]),
+        delay_qvalue=True,
+        loss_function=loss_function,
+        backup=backup,
+        rule=rule,
+        **residual,
+    )
+    loss.set_keys(
+        action=ACTION,
+        state_action_value=Q_VALUE,
+        reward=(AGENTS, "reward"),
+        done=(AGENTS, "done"),
+        terminated=(AGENTS, "terminated"),
+        candidates=(AGENTS, "proposer", "first_actions"),
+        anchor=(AGENTS, "proposer", "medoid"),
+    )
     loss.make_value_estimator(gamma=gamma)
     return loss, SoftUpdate(loss, tau=tau)
 
@@ -78,12 +90,14 @@ def make_sac_loss(
 def sac_optimisers(loss, optim: Mapping) -> dict[str, torch.optim.Optimizer]:
     """Adam for a ``SACLoss``'s actor, Q ensemble and temperature (``optim.*_lr``)."""
     return {
-        "actor_optim": torch.optim.Adam(loss.actor_network_params.parameters(),
-                                        lr=optim["actor_lr"]),
-        "critic_optim": torch.optim.Adam(loss.qvalue_network_params.parameters(),
-                                         lr=optim["critic_lr"]),
+        "actor_optim": torch.optim.Adam(
+            loss.actor_network_params.parameters(), lr=optim["actor_lr"]
+        ),
+        "critic_optim": torch.optim.Adam(
+            loss.qvalue_network_params.parameters(), lr=optim["critic_lr"]
+        ),
         "alpha_optim": torch.optim.Adam([loss.log_alpha], lr=optim["alpha_lr"]),
-    }  # fmt: skip
+    }
 
 
 def sac_from_config(
@@ -105,12 +119,18 @@ def sac_from_config(
     residual = cfg.get("residual") or {}
     on_prior = residual_bound(cfg) > 0
     loss, target_updater = make_sac_loss(
-        actor, critic.to(cfg["device"]), env, gamma=optim["gamma"],
-        alpha_init=optim["alpha_init"], tau=optim["tau"], loss_function=optim["loss_function"],
+        actor,
+        critic.to(cfg["device"]),
+        env,
+        gamma=optim["gamma"],
+        alpha_init=optim["alpha_init"],
+        tau=optim["tau"],
+        loss_function=optim["loss_function"],
         num_qvalue_nets=int(network.get("critics", 2)),
-        backup="actor" if on_prior else selection_backup(cfg), rule=rule,
+        backup="actor" if on_prior else selection_backup(cfg),
+        rule=rule,
         residual_coef=float(residual.get("coef", 1.0)) if on_prior else None,
-    )  # fmt: skip
+    )
     return Learner(
         loss,
         target_updater,

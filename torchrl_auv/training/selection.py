@@ -43,9 +43,13 @@ def acting_actor(actor: ProbabilisticActor, out_key=ACTOR_ACTION) -> Probabilist
     """A second head on ``actor``'s network (shared parameters) writing ``out_key``: the
     actor's own action as one more candidate, while the loss trains ``actor`` itself."""
     dist = actor.module[-1]
-    return ProbabilisticActor(actor.module[0], in_keys=dist.in_keys, out_keys=[out_key],
-                              distribution_class=dist.distribution_class,
-                              distribution_kwargs=dict(dist.distribution_kwargs))  # fmt: skip
+    return ProbabilisticActor(
+        actor.module[0],
+        in_keys=dist.in_keys,
+        out_keys=[out_key],
+        distribution_class=dist.distribution_class,
+        distribution_kwargs=dict(dist.distribution_kwargs),
+    )
 
 
 def make_selection_policy(
@@ -71,11 +75,17 @@ def make_selection_policy(
             f"loss (the owner of the Lyapunov spec) needs mode='lyapunov', got {mode!r}"
         )
     selector = CandidateSelector(
-        critic, mode=mode, include_actor_action=actor is not None,
-        candidates_key=(AGENTS, "proposer", "candidates"), observation_key=OBSERVATION,
-        action_key=ACTION, actor_action_key=ACTOR_ACTION, critic_action_key=ACTION,
-        critic_out_key=critic_out_key, rule=rule,
-    )  # fmt: skip
+        critic,
+        mode=mode,
+        include_actor_action=actor is not None,
+        candidates_key=(AGENTS, "proposer", "candidates"),
+        observation_key=OBSERVATION,
+        action_key=ACTION,
+        actor_action_key=ACTOR_ACTION,
+        critic_action_key=ACTION,
+        critic_out_key=critic_out_key,
+        rule=rule,
+    )
     if loss is not None:
         loss.share_spec(selector)
     parts = [proposer] + ([acting_actor(actor)] if actor is not None else []) + [selector]
@@ -112,8 +122,9 @@ def proposer_alone(
     (:class:`~torchrl_auv.modules.ProposerAlone`: the ``pick`` candidate, ``"medoid"`` or
     ``"first"``, of ``num_candidates`` draws, its actions executed for ``replan_every``
     decisions before the next plan; the env's ``step_count`` restarts the plan)."""
-    return ProposerAlone(proposer, pick, action_key=ACTION, num_candidates=num_candidates,
-                         replan_every=replan_every)  # fmt: skip
+    return ProposerAlone(
+        proposer, pick, action_key=ACTION, num_candidates=num_candidates, replan_every=replan_every
+    )
 
 
 def evaluation_policies(
@@ -134,8 +145,9 @@ def evaluation_policies(
     does not compete: :class:`~torchrl_auv.training.evaluation.SameRowAs`), the actor alone
     (``RL``, with an ``actor``) and the proposer alone (:func:`proposer_alone` with ``pick``,
     ``alone_candidates`` and ``alone_replan_every``)."""
-    alone = proposer_alone(proposer, pick, num_candidates=alone_candidates,
-                           replan_every=alone_replan_every)  # fmt: skip
+    alone = proposer_alone(
+        proposer, pick, num_candidates=alone_candidates, replan_every=alone_replan_every
+    )
     rows = {name: policy, "proposer alone": alone}
     if actor is not None:
         rows["RL"] = actor
@@ -155,8 +167,14 @@ def evaluation_policies_from_config(
     followed by the reference rows (the scripted expert, random actions). A residual actor's
     policy (``cfg.residual.bound > 0``) has no ranks."""
     p = cfg["proposer"]
-    rows = evaluation_policies(name, policy, actor, proposer, pick=p["alone_pick"],
-                               alone_candidates=p["alone_candidates"],
-                               alone_replan_every=p["alone_replan_every"],
-                               ranks=cfg["eval"]["ranks"] and not residual_bound(cfg))  # fmt: skip
+    rows = evaluation_policies(
+        name,
+        policy,
+        actor,
+        proposer,
+        pick=p["alone_pick"],
+        alone_candidates=p["alone_candidates"],
+        alone_replan_every=p["alone_replan_every"],
+        ranks=cfg["eval"]["ranks"] and not residual_bound(cfg),
+    )
     return {**rows, **reference_policies()}

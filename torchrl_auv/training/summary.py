@@ -19,8 +19,17 @@ from pathlib import Path
 __all__ = ["SUMMARY_COLUMNS", "write_eval", "write_summary"]
 
 #: The evaluation columns summary.md shows (eval.csv has every one).
-SUMMARY_COLUMNS = ("sdr_mbit", "ssn", "ec_w", "collisions", "violation_rate", "terminated",
-                   "cost_mean", "heading_error_mean", "depth_error_mean")  # fmt: skip
+SUMMARY_COLUMNS = (
+    "sdr_mbit",
+    "ssn",
+    "ec_w",
+    "collisions",
+    "violation_rate",
+    "terminated",
+    "cost_mean",
+    "heading_error_mean",
+    "depth_error_mean",
+)
 
 
 def write_eval(rows: Sequence[Mapping], run_dir: str | Path) -> Path:

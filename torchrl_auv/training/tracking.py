@@ -67,8 +67,9 @@ def batch_metrics(data: TensorDictBase) -> dict[str, float]:
     first = data.get(("agents", "proposer", "first_actions"), None)
     if first is not None:
         executed = data["agents", "action"].unsqueeze(-2)
-        side = ((executed >= first.amax(-2, keepdim=True)).float()
-                - (executed <= first.amin(-2, keepdim=True)).float())  # fmt: skip
+        side = (executed >= first.amax(-2, keepdim=True)).float() - (
+            executed <= first.amin(-2, keepdim=True)
+        ).float()
         side = side.reshape(-1, side.shape[-1])
         out.update({f"train/selected_side_{d}": v for d, v in enumerate(side.mean(0).tolist())})
         extreme = side.abs().mean(0).tolist()
@@ -133,16 +134,26 @@ class RunTracker:
     every point <= F), and :meth:`finish` waits for the last.
     """
 
-    def __init__(self, cfg: DictConfig, run_dir: Path, logger, progress, checkpoint, rotation,
-                 *, eval_policy=None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        cfg: DictConfig,
+        run_dir: Path,
+        logger,
+        progress,
+        checkpoint,
+        rotation,
+        *,
+        eval_policy=None,
+    ) -> None:
         self.cfg, self.logger, self.progress = cfg, logger, progress
         self.checkpoint, self.rotation = checkpoint, rotation
         self.curve = Path(run_dir) / "train_curve.csv"
         self.eval_curve = Path(run_dir) / "eval_curve.csv"
         for curve in (self.curve, self.eval_curve):  # resumed: from the checkpoint's frames on;
             truncate_curve(curve, progress.frames or -1)  # from frame 0: a stopped start's rows
-        self.bar = tqdm.tqdm(total=cfg.collector.total_frames, initial=progress.frames,
-                             unit="frame")  # fmt: skip
+        self.bar = tqdm.tqdm(
+            total=cfg.collector.total_frames, initial=progress.frames, unit="frame"
+        )
         self.start = time.perf_counter()
         self.frames_at_start = self.last_saved = progress.frames
         self.eval_policy, self.eval_seconds = eval_policy, 0.0
@@ -152,8 +163,12 @@ class RunTracker:
         if eval_policy is not None and self.every:
             self.evaluated_block = progress.frames // self.every
             if OmegaConf.select(cfg, "eval.curve_background", default=False):
-                self.worker = RowWorker(self._curve_env(), cfg.env.sea_state,
-                                        seed=cfg.eval.seed, steps=cfg.eval.curve_steps)  # fmt: skip
+                self.worker = RowWorker(
+                    self._curve_env(),
+                    cfg.env.sea_state,
+                    seed=cfg.eval.seed,
+                    steps=cfg.eval.curve_steps,
+                )
             if progress.frames == 0:
                 self.evaluate_curve()
 
@@ -174,8 +189,13 @@ class RunTracker:
             self.worker.submit(self.progress.frames, self.eval_policy)
             self.eval_seconds += time.perf_counter() - began  # pickling the policy
             return None
-        row = evaluate(self._curve_env(), {"policy": self.eval_policy}, [cfg.env.sea_state],
-                       seed=cfg.eval.seed, steps=cfg.eval.curve_steps)[0]  # fmt: skip
+        row = evaluate(
+            self._curve_env(),
+            {"policy": self.eval_policy},
+            [cfg.env.sea_state],
+            seed=cfg.eval.seed,
+            steps=cfg.eval.curve_steps,
+        )[0]
         seconds = time.perf_counter() - began
         self.eval_seconds += seconds
         return self._log_curve(self.progress.frames, row, seconds)
@@ -206,8 +226,9 @@ class RunTracker:
         frames = self.progress.frames
         log_metrics(self.logger, metrics, frames, curve=self.curve)
         self.bar.update(data.numel())
-        self.last_episode.update({k: v for k, v in metrics.items()
-                                  if k.startswith("train/episode_")})  # fmt: skip
+        self.last_episode.update(
+            {k: v for k, v in metrics.items() if k.startswith("train/episode_")}
+        )
         self.bar.set_postfix(progress_postfix({**metrics, **self.last_episode}, spec))
         self._collect_curve()
         if self.eval_policy is not None and self.every:
@@ -232,9 +253,12 @@ class RunTracker:
             self.worker.close()
         self.bar.close()
         self.rotation.save(self.checkpoint, step=self.progress.frames)
-        return {"frames": self.progress.frames,
-                "frames this session": self.progress.frames - self.frames_at_start,
-                "wall time this session (s)": time.perf_counter() - self.start,
-                "training frames/s": self.rate() if self.progress.frames > self.frames_at_start
-                else "none trained in this session (resumed at its last frame)",
-                "peak RSS (MB)": peak_rss_mb()}  # fmt: skip
+        return {
+            "frames": self.progress.frames,
+            "frames this session": self.progress.frames - self.frames_at_start,
+            "wall time this session (s)": time.perf_counter() - self.start,
+            "training frames/s": self.rate()
+            if self.progress.frames > self.frames_at_start
+            else "none trained in this session (resumed at its last frame)",
+            "peak RSS (MB)": peak_rss_mb(),
+        }

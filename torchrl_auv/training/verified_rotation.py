@@ -58,8 +58,10 @@ def _files(root: Path) -> list[Path]:
 def write_checksums(root: Path) -> None:
     """Write ``root/checksums.json``: ``{relative path: {"bytes": size, "sha256": digest}}`` of
     every file under ``root``, atomically (a temporary file renamed into place)."""
-    table = {p.relative_to(root).as_posix(): {"bytes": p.stat().st_size, "sha256": _sha256(p)}
-             for p in _files(root)}  # fmt: skip
+    table = {
+        p.relative_to(root).as_posix(): {"bytes": p.stat().st_size, "sha256": _sha256(p)}
+        for p in _files(root)
+    }
     temporary = root / f".{CHECKSUMS}.{uuid.uuid4().hex}"
     temporary.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
     os.replace(temporary, root / CHECKSUMS)
@@ -98,8 +100,9 @@ class VerifiedRotation(CheckpointRotation):
     def save(self, checkpoint: Checkpoint, *, step: int, **kwargs) -> Path:
         """Save ``checkpoint`` at ``step`` with its checksums, publish it, then prune."""
         if checkpoint.format != "directory":
-            raise ValueError(f"VerifiedRotation saves directory checkpoints, got format "
-                             f"{checkpoint.format!r}")  # fmt: skip
+            raise ValueError(
+                f"VerifiedRotation saves directory checkpoints, got format {checkpoint.format!r}"
+            )
         self._validate_step(step)
         self.directory.mkdir(parents=True, exist_ok=True)
         stage = self.directory / f".stage-{uuid.uuid4().hex}"  # not a name the rotation reads

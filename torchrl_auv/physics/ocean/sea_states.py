@@ -128,22 +128,44 @@ def _is_real(value: object) -> bool:
 
 SEA_STATES: dict[str, SeaState] = {
     "ideal": SeaState(
-        name="ideal", usbl_noise_fraction=0.001, usbl_dropout=0.0, usbl_attitude_sigma=0.0,
-        gnss_sigma=1.0, gnss_time_constant=60.0,
+        name="ideal",
+        usbl_noise_fraction=0.001,
+        usbl_dropout=0.0,
+        usbl_attitude_sigma=0.0,
+        gnss_sigma=1.0,
+        gnss_time_constant=60.0,
     ),
     "es": SeaState(
-        name="es", current_mean=0.5, current_sigma=0.1, current_time_constant=60.0,
-        current_direction_sigma=0.2, wave_hs=4.0, wave_tp=10.0, wave_gamma=3.3,
-        usbl_noise_fraction=0.005, usbl_dropout=0.05, usbl_attitude_sigma=math.radians(0.5),
-        gnss_sigma=1.5, gnss_time_constant=60.0,
+        name="es",
+        current_mean=0.5,
+        current_sigma=0.1,
+        current_time_constant=60.0,
+        current_direction_sigma=0.2,
+        wave_hs=4.0,
+        wave_tp=10.0,
+        wave_gamma=3.3,
+        usbl_noise_fraction=0.005,
+        usbl_dropout=0.05,
+        usbl_attitude_sigma=math.radians(0.5),
+        gnss_sigma=1.5,
+        gnss_time_constant=60.0,
     ),
     "ves": SeaState(
-        name="ves", current_mean=1.0, current_sigma=0.2, current_time_constant=60.0,
-        current_direction_sigma=0.3, wave_hs=6.0, wave_tp=12.0, wave_gamma=3.3,
-        usbl_noise_fraction=0.01, usbl_dropout=0.20, usbl_attitude_sigma=math.radians(0.75),
-        gnss_sigma=2.0, gnss_time_constant=60.0,
+        name="ves",
+        current_mean=1.0,
+        current_sigma=0.2,
+        current_time_constant=60.0,
+        current_direction_sigma=0.3,
+        wave_hs=6.0,
+        wave_tp=12.0,
+        wave_gamma=3.3,
+        usbl_noise_fraction=0.01,
+        usbl_dropout=0.20,
+        usbl_attitude_sigma=math.radians(0.75),
+        gnss_sigma=2.0,
+        gnss_time_constant=60.0,
     ),
-}  # fmt: skip
+}
 
 
 def get_sea_state(sea_state: str | SeaState) -> SeaState:

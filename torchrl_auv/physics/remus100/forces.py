@@ -145,9 +145,16 @@ def coriolis(nu_r: torch.Tensor, params: Remus100Params | None = None) -> torch.
 #: (:math:`\nu_r \otimes \nu_r`), damping (:math:`\nu_r`, surge and sway faded) and the
 #: current's rotation (:math:`r u_c, r v_c`, added to :math:`\dot\nu` directly).
 FEATURES = (
-    ("propeller", 2), ("fins", 2), ("fin_drag", 2), ("hull", 6), ("crossflow", None),
-    ("restoring", 2), ("coriolis", 36), ("damping", 6), ("current_rotation", 2),
-)  # fmt: skip
+    ("propeller", 2),
+    ("fins", 2),
+    ("fin_drag", 2),
+    ("hull", 6),
+    ("crossflow", None),
+    ("restoring", 2),
+    ("coriolis", 36),
+    ("damping", 6),
+    ("current_rotation", 2),
+)
 
 
 def _force_map(p: Remus100Params) -> torch.Tensor:
@@ -167,8 +174,10 @@ def _force_map(p: Remus100Params) -> torch.Tensor:
     n, speed = torch.ones(2, dtype=torch.float64), torch.tensor([0.0, 1.0], dtype=torch.float64)
     thrust, torque = propeller_forces(n, speed, p)
     add(X=(1 - p.thrust_deduction) * thrust[0].item(), K=torque[0].item() / 10.0)
-    add(X=(1 - p.thrust_deduction) * (thrust[1] - thrust[0]).item(),
-        K=(torque[1] - torque[0]).item() / 10.0)  # fmt: skip
+    add(
+        X=(1 - p.thrust_deduction) * (thrust[1] - thrust[0]).item(),
+        K=(torque[1] - torque[0]).item() / 10.0,
+    )
     fin = 0.5 * p.rho * 2 * p.fin_area
     y_r, z_s, x_fin = -fin * p.cl_rudder, -fin * p.cl_stern, -p.length / 2
     add(Y=y_r, N=x_fin * y_r)

@@ -82,9 +82,22 @@ class Remus100Params:
 
     def __post_init__(self) -> None:
         positive = (
-            "rho", "g", "length", "diameter", "t_surge", "t_sway", "t_heave", "t_yaw",
-            "prop_diameter", "j_max", "fin_area", "delta_max", "n_max", "t_fin", "t_prop",
-        )  # fmt: skip
+            "rho",
+            "g",
+            "length",
+            "diameter",
+            "t_surge",
+            "t_sway",
+            "t_heave",
+            "t_yaw",
+            "prop_diameter",
+            "j_max",
+            "fin_area",
+            "delta_max",
+            "n_max",
+            "t_fin",
+            "t_prop",
+        )
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"Remus100Params.{name} must be > 0, got {getattr(self, name)}")
@@ -208,7 +221,16 @@ class Remus100Params:
 
 
 _DERIVED = (
-    "semi_axes", "mass", "weight", "inertia", "added_mass", "mass_matrix",
-    "mass_matrix_inverse", "damping_base", "hull", "crossflow_cd", "strip_positions",
-)  # fmt: skip
+    "semi_axes",
+    "mass",
+    "weight",
+    "inertia",
+    "added_mass",
+    "mass_matrix",
+    "mass_matrix_inverse",
+    "damping_base",
+    "hull",
+    "crossflow_cd",
+    "strip_positions",
+)
 DEFAULT_PARAMS = Remus100Params()

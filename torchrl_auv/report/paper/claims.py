@@ -121,8 +121,17 @@ class Claim:
     check: Callable[[Path, Sequence[int]], list[tuple[str, str]]]
 
 
-def _stat(root: Path, framework: str, sea: str, controller: str, seeds: Sequence[int],
-          metric: str, *, policy: str | None = None, variant: str = "") -> Stat:  # fmt: skip
+def _stat(
+    root: Path,
+    framework: str,
+    sea: str,
+    controller: str,
+    seeds: Sequence[int],
+    metric: str,
+    *,
+    policy: str | None = None,
+    variant: str = "",
+) -> Stat:
     """Mean, std and count over the seeds whose finished job has a finite ``metric`` in the
     row of ``policy`` (``None``: the job's own framework). ``"return"``: minus the cost per
     AUV-decision times the decisions of the episode (the Fig. 8/9 table's)."""
@@ -226,8 +235,9 @@ def _faster_start(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
     return out
 
 
-def _s_surface_first(frameworks: Sequence[str], seas: Sequence[str], metrics: Sequence[str],
-                     *, higher: bool):  # fmt: skip
+def _s_surface_first(
+    frameworks: Sequence[str], seas: Sequence[str], metrics: Sequence[str], *, higher: bool
+):
     """S-Surface against PID and against SMC, per framework, sea and metric."""
 
     def check(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
@@ -273,8 +283,10 @@ def _rank(root: Path, seeds: Sequence[int], policy: str, metric: str) -> Stat:
 
 def _ranks_monotone(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
     order = ("OA", "CA1", "CA2", "CA3", "CA4")
-    return [_pair(a, _rank(root, seeds, a, "return"), b, _rank(root, seeds, b, "return"),
-                  higher=True) for a, b in pairwise(order)]  # fmt: skip
+    return [
+        _pair(a, _rank(root, seeds, a, "return"), b, _rank(root, seeds, b, "return"), higher=True)
+        for a, b in pairwise(order)
+    ]
 
 
 def _oa_best(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
@@ -283,8 +295,9 @@ def _oa_best(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
         oa = _rank(root, seeds, "OA", metric)
         for other in ("CA1", "CA2", "CA3", "CA4", "RL"):
             name = "RL (LAC)" if other == "RL" else other
-            out.append(_pair(f"{metric}: OA", oa, name, _rank(root, seeds, other, metric),
-                             higher=True))  # fmt: skip
+            out.append(
+                _pair(f"{metric}: OA", oa, name, _rank(root, seeds, other, metric), higher=True)
+            )
     return out
 
 
@@ -309,72 +322,130 @@ def _contraction(pairs: Sequence[tuple[str, str]]):
         out = []
         for a, b in pairs:
             ra, rb = _contraction_ratio(root, seeds, a), _contraction_ratio(root, seeds, b)
-            out.append(_pair(a.removeprefix("fixed-"), ra, b.removeprefix("fixed-"), rb,
-                             higher=False))  # fmt: skip
+            out.append(
+                _pair(a.removeprefix("fixed-"), ra, b.removeprefix("fixed-"), rb, higher=False)
+            )
         return out
 
     return check
 
 
 def _advisor(root: Path, seeds: Sequence[int]) -> list[tuple[str, str]]:
-    fixed = _stat(root, "diffusion_lac", MAIN_SEA, "s_surface", seeds, "cost_mean",
-                  variant="fixed-softplus-alpha0.1")  # fmt: skip
-    out = [_pair("rule-based advisor", _stat(root, "diffusion_lac", MAIN_SEA, "s_surface",
-                                             seeds, "cost_mean"), "fixed spec", fixed,
-                 higher=False)]  # fmt: skip
-    llm = _stat(root, "diffusion_lac", MAIN_SEA, "s_surface", seeds, "cost_mean",
-                variant="openai")  # fmt: skip
+    fixed = _stat(
+        root,
+        "diffusion_lac",
+        MAIN_SEA,
+        "s_surface",
+        seeds,
+        "cost_mean",
+        variant="fixed-softplus-alpha0.1",
+    )
+    out = [
+        _pair(
+            "rule-based advisor",
+            _stat(root, "diffusion_lac", MAIN_SEA, "s_surface", seeds, "cost_mean"),
+            "fixed spec",
+            fixed,
+            higher=False,
+        )
+    ]
+    llm = _stat(root, "diffusion_lac", MAIN_SEA, "s_surface", seeds, "cost_mean", variant="openai")
     if llm[2]:
         out.append(_pair("LLM advisor", llm, "fixed spec", fixed, higher=False))
     return out
 
 
-_ALPHA_PAIRS = [(f"fixed-{FIXED_FORM}-alpha{b}", f"fixed-{FIXED_FORM}-alpha{a}")
-                for a, b in pairwise(ALPHAS)]  # fmt: skip
+_ALPHA_PAIRS = [
+    (f"fixed-{FIXED_FORM}-alpha{b}", f"fixed-{FIXED_FORM}-alpha{a}") for a, b in pairwise(ALPHAS)
+]
 _SQUARED = f"fixed-squared-alpha{FIXED_ALPHA}"
-_FORM_PAIRS = [(_SQUARED, f"fixed-{form}-alpha{FIXED_ALPHA}") for form in FORMS
-               if form != "squared"]  # fmt: skip
+_FORM_PAIRS = [
+    (_SQUARED, f"fixed-{form}-alpha{FIXED_ALPHA}") for form in FORMS if form != "squared"
+]
 
 #: The claims of §IV that our runs can decide, in the paper's order.
 CLAIMS = [
-    Claim("The proposer's denoising loss settles around 3e-2 (per sea: within a factor √10)",
-          "Fig. 4", _fig4),
-    Claim("Diffusion+RL and Diffusion+RL (LAC) reach a better return than RL (lower cost per "
-          "AUV-decision), in every sea", "Fig. 7", _versus_sac("cost_mean", higher=False)),
-    Claim("... and deliver more data (SDR) than RL, in every sea", "Fig. 7",
-          _versus_sac("sdr_mbit", higher=True)),
-    Claim("... and serve more sensor nodes (SSN) than RL, in every sea", "Fig. 7",
-          _versus_sac("ssn", higher=True)),
-    Claim("... and converge faster than RL (a lower cost at the first evaluation after frame 0)",
-          "Fig. 7",
-          _faster_start),
-    Claim("LAC adds an improvement over Diffusion+RL under ES and VES (SDR, SSN)", "Fig. 7",
-          _lac_over_rl(("s_surface",))),
-    Claim("EC is comparable across the diffusion frameworks (within 10 %)", "Fig. 7",
-          _ec_comparable),
-    Claim("S-Surface gives the highest SDR and SSN of the three controllers", "Table II",
-          _s_surface_first(("diffusion_rl", "diffusion_lac"), ("es", "ves"), ("sdr_mbit", "ssn"),
-                           higher=True)),
+    Claim(
+        "The proposer's denoising loss settles around 3e-2 (per sea: within a factor √10)",
+        "Fig. 4",
+        _fig4,
+    ),
+    Claim(
+        "Diffusion+RL and Diffusion+RL (LAC) reach a better return than RL (lower cost per "
+        "AUV-decision), in every sea",
+        "Fig. 7",
+        _versus_sac("cost_mean", higher=False),
+    ),
+    Claim(
+        "... and deliver more data (SDR) than RL, in every sea",
+        "Fig. 7",
+        _versus_sac("sdr_mbit", higher=True),
+    ),
+    Claim(
+        "... and serve more sensor nodes (SSN) than RL, in every sea",
+        "Fig. 7",
+        _versus_sac("ssn", higher=True),
+    ),
+    Claim(
+        "... and converge faster than RL (a lower cost at the first evaluation after frame 0)",
+        "Fig. 7",
+        _faster_start,
+    ),
+    Claim(
+        "LAC adds an improvement over Diffusion+RL under ES and VES (SDR, SSN)",
+        "Fig. 7",
+        _lac_over_rl(("s_surface",)),
+    ),
+    Claim(
+        "EC is comparable across the diffusion frameworks (within 10 %)", "Fig. 7", _ec_comparable
+    ),
+    Claim(
+        "S-Surface gives the highest SDR and SSN of the three controllers",
+        "Table II",
+        _s_surface_first(
+            ("diffusion_rl", "diffusion_lac"), ("es", "ves"), ("sdr_mbit", "ssn"), higher=True
+        ),
+    ),
     Claim("SMC degrades severely from ES to VES (SSN)", "Table II", _smc_degrades),
-    Claim("LAC improves SDR and SSN with every controller in both seas", "Table II",
-          _lac_over_rl(CONTROLLERS)),
-    Claim("S-Surface has the lowest yaw and depth errors in every framework", "Table III",
-          _s_surface_first(tuple(LABELS), (MAIN_SEA,), TRACKING, higher=False)),
-    Claim("Diffusion+RL (LAC) with S-Surface has the lowest errors of the frameworks (the "
-          "paper's own Table III has RL (Baseline)'s mean yaw error, 0.10, below it, 0.11)",
-          "Table III", _tracking_lac_best),
-    Claim("The return falls monotonically from OA through CA1 to CA4", "Fig. 8",
-          _ranks_monotone),
-    Claim("OA has the highest SDR and SSN of the six strategies, RL (LAC) included", "Fig. 9",
-          _oa_best),
-    Claim("A larger stability weight alpha contracts the Lyapunov value more (last tenth of "
-          "an episode over its first, per seed)", "Fig. 10",
-          _contraction(_ALPHA_PAIRS)),
-    Claim("The squared form contracts the Lyapunov value the most", "Fig. 11",
-          _contraction(_FORM_PAIRS)),
-    Claim("Adapting the Lyapunov spec during training beats a fixed spec (cost)",
-          "§IV, advisor ablation", _advisor),
-]  # fmt: skip
+    Claim(
+        "LAC improves SDR and SSN with every controller in both seas",
+        "Table II",
+        _lac_over_rl(CONTROLLERS),
+    ),
+    Claim(
+        "S-Surface has the lowest yaw and depth errors in every framework",
+        "Table III",
+        _s_surface_first(tuple(LABELS), (MAIN_SEA,), TRACKING, higher=False),
+    ),
+    Claim(
+        "Diffusion+RL (LAC) with S-Surface has the lowest errors of the frameworks (the "
+        "paper's own Table III has RL (Baseline)'s mean yaw error, 0.10, below it, 0.11)",
+        "Table III",
+        _tracking_lac_best,
+    ),
+    Claim("The return falls monotonically from OA through CA1 to CA4", "Fig. 8", _ranks_monotone),
+    Claim(
+        "OA has the highest SDR and SSN of the six strategies, RL (LAC) included",
+        "Fig. 9",
+        _oa_best,
+    ),
+    Claim(
+        "A larger stability weight alpha contracts the Lyapunov value more (last tenth of "
+        "an episode over its first, per seed)",
+        "Fig. 10",
+        _contraction(_ALPHA_PAIRS),
+    ),
+    Claim(
+        "The squared form contracts the Lyapunov value the most",
+        "Fig. 11",
+        _contraction(_FORM_PAIRS),
+    ),
+    Claim(
+        "Adapting the Lyapunov spec during training beats a fixed spec (cost)",
+        "§IV, advisor ablation",
+        _advisor,
+    ),
+]
 
 
 def judge(root: str | Path, seeds: Sequence[int]) -> list[dict[str, object]]:
@@ -384,6 +455,12 @@ def judge(root: str | Path, seeds: Sequence[int]) -> list[dict[str, object]]:
     rows = []
     for claim in CLAIMS:
         found = claim.check(root, list(seeds))
-        rows.append({"claim": claim.text, "where": claim.where,
-                     "verdict": verdict([o for o, _ in found]), "comparisons": found})  # fmt: skip
+        rows.append(
+            {
+                "claim": claim.text,
+                "where": claim.where,
+                "verdict": verdict([o for o, _ in found]),
+                "comparisons": found,
+            }
+        )
     return rows

@@ -99,8 +99,9 @@ def fig4(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
         ax.set_title(f"{sea}")
         ax.set_xlabel("optimiser step")
         mean, std = mean_std(finals)
-        rows.append({"sea_state": sea, "runs": len(finals), "heldout_loss": mean,
-                     "heldout_loss_std": std})  # fmt: skip
+        rows.append(
+            {"sea_state": sea, "runs": len(finals), "heldout_loss": mean, "heldout_loss_std": std}
+        )
     axes[0, 0].set_ylabel("denoising loss")
     axes[0, 0].legend(loc="lower left", fontsize="small")
     paths = [_save(fig, Path(out_dir) / "fig4.png")]
@@ -141,13 +142,20 @@ def fig5_6(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
     proposer = DiffusionProposer.load(folder / "proposer.pt")
     values = json.loads((folder / "values.json").read_text())
     history = values["demonstrations"]["history"]
-    make = lambda n: make_history_env(MAIN_SEA, seed=100000, num_envs=n, history=history,  # noqa: E731
-                                      controller=values["controller"],
-                                      rate_model=values["rate_model"])  # fmt: skip
+
+    def make(n):
+        return make_history_env(
+            MAIN_SEA,
+            seed=100000,
+            num_envs=n,
+            history=history,
+            controller=values["controller"],
+            rate_model=values["rate_model"],
+        )
+
     with torch.no_grad():
         state = proposer.build_state(make(1).reset())
-        _, stages = proposer.sample(state, generator=torch.Generator().manual_seed(0),
-                                    num_stages=3)  # fmt: skip
+        _, stages = proposer.sample(state, generator=torch.Generator().manual_seed(0), num_stages=3)
     chunks = stages[0].permute(1, 2, 0, 3, 4)  # [N, S, K, H, A] -> [S, K, N, H, A]
     paths = roll_out_candidates(make, chunks)  # [S, K, H + 1, N, 3]
     labels = ["early", "middle", "final"]
@@ -197,13 +205,19 @@ def _plot_fig5_6(paths: list, labels: Sequence[str], out_dir: Path) -> list[Path
     return written
 
 
-CURVE_KEYS = (("eval/cost_mean", "cost per AUV-decision"), ("eval/sdr_mbit", "SDR (Mbit)"),
-              ("eval/ssn", "SSN"), ("eval/ec_w", "EC (W)"))  # fmt: skip
+CURVE_KEYS = (
+    ("eval/cost_mean", "cost per AUV-decision"),
+    ("eval/sdr_mbit", "SDR (Mbit)"),
+    ("eval/ssn", "SSN"),
+    ("eval/ec_w", "EC (W)"),
+)
 #: the training-time curves (``train_curve.csv``: the collected batches, exploration on; the
 #: env logs no episode EC) and the width of their bins (frames)
-TRAIN_CURVE_KEYS = (("train/cost_mean", "cost per AUV-decision"),
-                    ("train/episode_sdr", "SDR (Mbit) per episode"),
-                    ("train/episode_ssn", "SSN per episode"))  # fmt: skip
+TRAIN_CURVE_KEYS = (
+    ("train/cost_mean", "cost per AUV-decision"),
+    ("train/episode_sdr", "SDR (Mbit) per episode"),
+    ("train/episode_ssn", "SSN per episode"),
+)
 TRAIN_BIN_FRAMES = 5000
 
 
@@ -222,14 +236,22 @@ def fig7(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[P
     seed's batches averaged in bins of :data:`TRAIN_BIN_FRAMES` frames (episodes end
     irregularly), then mean and band over seeds."""
     written = []
-    training = (f"training curves, not on held-out scenes: the collected batches, exploration "
-                f"on, averaged in {TRAIN_BIN_FRAMES:,}-frame bins (frames: a bin's end, or the "
-                "job's last)")  # fmt: skip
+    training = (
+        f"training curves, not on held-out scenes: the collected batches, exploration "
+        f"on, averaged in {TRAIN_BIN_FRAMES:,}-frame bins (frames: a bin's end, or the "
+        "job's last)"
+    )
     for name, file, keys, bins, what, title in (
         ("fig7", "eval_curve.csv", CURVE_KEYS, None, "evaluation curves", None),
-        ("fig7_training", "train_curve.csv", TRAIN_CURVE_KEYS, TRAIN_BIN_FRAMES, training,
-         "Training curves: the collected batches, exploration on (not held-out scenes)"),
-    ):  # fmt: skip
+        (
+            "fig7_training",
+            "train_curve.csv",
+            TRAIN_CURVE_KEYS,
+            TRAIN_BIN_FRAMES,
+            training,
+            "Training curves: the collected batches, exploration on (not held-out scenes)",
+        ),
+    ):
         fig, rows = _curve_panels(root, seeds, file, keys, bins)
         if title:
             fig.suptitle(title)
@@ -261,21 +283,31 @@ def _curve_panels(root: Path, seeds: Sequence[int], file: str, keys, width: int 
     frameworks: mean and band over seeds at each step (bins of ``width`` frames). Returns
     the figure and its rows."""
     plt = _plt()
-    fig, axes = plt.subplots(len(keys), len(SEAS), figsize=(4.2 * len(SEAS), 2.25 * len(keys)),
-                             squeeze=False, sharex="col")  # fmt: skip
+    fig, axes = plt.subplots(
+        len(keys),
+        len(SEAS),
+        figsize=(4.2 * len(SEAS), 2.25 * len(keys)),
+        squeeze=False,
+        sharex="col",
+    )
     colours = dict(zip(("sac", "diffusion_rl", "diffusion_lac"), ("C0", "C1", "C2"), strict=True))
     rows = []
     for j, sea in enumerate(SEAS):
         for framework, colour in colours.items():
-            curves = [Path(root) / "jobs" / Job(framework, sea, "s_surface", s).name / file
-                      for s in seeds]  # fmt: skip
+            curves = [
+                Path(root) / "jobs" / Job(framework, sea, "s_surface", s).name / file for s in seeds
+            ]
             # finished jobs only: a running job's curve stops short (and is not stored)
-            curves = [read_curve(c) for c in curves
-                      if c.exists() and (c.parent / "eval.csv").exists()]  # fmt: skip
+            curves = [
+                read_curve(c) for c in curves if c.exists() and (c.parent / "eval.csv").exists()
+            ]
             lasts = [max((max(s) for s, _ in c.values()), default=0) for c in curves]  # last frame
             for i, (key, label) in enumerate(keys):
-                runs = [_binned(dict(zip(*c[key], strict=True)), width, last)
-                        for c, last in zip(curves, lasts, strict=True) if key in c]  # fmt: skip
+                runs = [
+                    _binned(dict(zip(*c[key], strict=True)), width, last)
+                    for c, last in zip(curves, lasts, strict=True)
+                    if key in c
+                ]
                 axes[i, 0].set_ylabel(label)
                 if not runs:
                     continue
@@ -285,9 +317,13 @@ def _curve_panels(root: Path, seeds: Sequence[int], file: str, keys, width: int 
                 std = [d for _, d in stats]
                 name = f"{LABELS[framework]} ({len(runs)} of {len(seeds)})"
                 axes[i, j].plot(steps, mean, marker="o", markersize=3, color=colour, label=name)
-                axes[i, j].fill_between(steps, [m - d for m, d in zip(mean, std, strict=True)],
-                                        [m + d for m, d in zip(mean, std, strict=True)],
-                                        color=colour, alpha=0.2)  # fmt: skip
+                axes[i, j].fill_between(
+                    steps,
+                    [m - d for m, d in zip(mean, std, strict=True)],
+                    [m + d for m, d in zip(mean, std, strict=True)],
+                    color=colour,
+                    alpha=0.2,
+                )
                 rows += [
                     {
                         "sea_state": sea,
@@ -309,8 +345,15 @@ def _curve_panels(root: Path, seeds: Sequence[int], file: str, keys, width: int 
         for ax in axes[:, j]:
             if not ax.lines:
                 ax.set_yticks([])
-                ax.text(0.5, 0.5, "not run yet", ha="center", va="center",
-                        transform=ax.transAxes, color="0.5")  # fmt: skip
+                ax.text(
+                    0.5,
+                    0.5,
+                    "not run yet",
+                    ha="center",
+                    va="center",
+                    transform=ax.transAxes,
+                    color="0.5",
+                )
     return fig, rows
 
 
@@ -319,8 +362,10 @@ RANKS = ("OA", "CA1", "CA2", "CA3", "CA4", "RL")
 #: its own ``proposer.alone_candidates`` draws, 10 in the paper presets, where the selection
 #: ranks K = 5; no critic), the scripted expert and random actions
 REFERENCES = ("proposer alone", "expert", "random")
-BAR_TITLES = {"return": "episode return",
-              **{key.removeprefix("eval/"): label for key, label in CURVE_KEYS}}  # fmt: skip
+BAR_TITLES = {
+    "return": "episode return",
+    **{key.removeprefix("eval/"): label for key, label in CURVE_KEYS},
+}
 
 
 def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
@@ -340,20 +385,36 @@ def fig8_9(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         cell = job_rows(root, jobs, policy, ("return", "terminated", *metrics[1:]))
         cell["ended early"], cell["ended early_std"] = cell["terminated"], cell["terminated_std"]
         paper = {f"paper {m}": FIG9.get(policy, {}).get(m, math.nan) for m in metrics[1:]}
-        rows.append({"policy": names.get(policy, policy), **cell,
-                     "paper return (x 1e3)": FIG8_RETURN_E3.get(policy, math.nan),
-                     **paper})  # fmt: skip
+        rows.append(
+            {
+                "policy": names.get(policy, policy),
+                **cell,
+                "paper return (x 1e3)": FIG8_RETURN_E3.get(policy, math.nan),
+                **paper,
+            }
+        )
     colours = ["C0"] * len(RANKS) + ["0.6"] * len(REFERENCES)
     fig, axes = plt.subplots(1, len(metrics), figsize=(4.0 * len(metrics), 3.6), squeeze=False)
     for ax, metric in zip(axes[0], metrics, strict=True):
         ran = [r for r in rows if math.isfinite(r[metric])]
         # NaN (a row not run, the std of one seed) draws no bar and no error bar, not a 0
-        ax.bar([r["policy"].removesuffix(" (reference)") for r in rows],
-               [r[metric] for r in rows], yerr=[r[f"{metric}_std"] for r in rows],
-               capsize=3, color=colours)  # fmt: skip
+        ax.bar(
+            [r["policy"].removesuffix(" (reference)") for r in rows],
+            [r[metric] for r in rows],
+            yerr=[r[f"{metric}_std"] for r in rows],
+            capsize=3,
+            color=colours,
+        )
         if len(ran) < len(rows):
-            ax.text(0.5, 0.5, "not run yet" if not ran else "–: not run yet",
-                    ha="center", va="center", transform=ax.transAxes, color="0.5")  # fmt: skip
+            ax.text(
+                0.5,
+                0.5,
+                "not run yet" if not ran else "–: not run yet",
+                ha="center",
+                va="center",
+                transform=ax.transAxes,
+                color="0.5",
+            )
         if not ran:
             ax.set_yticks([])
         ax.set_title(BAR_TITLES[metric])
@@ -413,15 +474,19 @@ def pool_traces(traces: Sequence[dict[str, list[float]]]) -> dict[str, list[floa
     where none runs, std 0 where one does."""
     out = {"mean": [], "std": [], "episodes": []}
     for i in range(max((len(t["mean"]) for t in traces), default=0)):
-        parts = [(t["mean"][i], t["std"][i], t["episodes"][i]) for t in traces
-                 if i < len(t["mean"]) and t["episodes"][i] > 0]  # fmt: skip
+        parts = [
+            (t["mean"][i], t["std"][i], t["episodes"][i])
+            for t in traces
+            if i < len(t["mean"]) and t["episodes"][i] > 0
+        ]
         count = sum(n for _, _, n in parts)
         mean = sum(m * n for m, _, n in parts) / count if count else math.nan
         # within each trace (n - 1) s^2, between them n (m - mean)^2: the episodes' squares
         square = sum((n - 1) * s**2 + n * (m - mean) ** 2 for m, s, n in parts)
         out["mean"].append(mean)
-        out["std"].append(math.sqrt(square / (count - 1)) if count > 1 else
-                          (0.0 if count else math.nan))  # fmt: skip
+        out["std"].append(
+            math.sqrt(square / (count - 1)) if count > 1 else (0.0 if count else math.nan)
+        )
         out["episodes"].append(float(count))
     return out
 
@@ -441,41 +506,61 @@ def tenth_means(trace: dict[str, list[float]]) -> tuple[float, float]:
     return pooled(running[:tenth]), pooled(running[-tenth:])
 
 
-def fig10_11(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
-             experiment: str) -> list[Path]:  # fmt: skip
+def fig10_11(
+    root: Path, out_dir: Path, seeds: Sequence[int], header: str, experiment: str
+) -> list[Path]:
     """Fig. 10 (``experiment="fig10"``: the weight alpha) or Fig. 11 (``"fig11"``: the form):
     the executed candidate's Lyapunov value along held-out episodes (``lyapunov_trace.csv``
     of each job), per decision the mean over every episode of every seed still running and a
     ± one std band (:func:`pool_traces`); the table's first and last tenth by
     :func:`tenth_means`."""
     plt = _plt()
-    variants = ([(f"alpha {a}", FIXED_FORM, a) for a in ALPHAS] if experiment == "fig10"
-                else [(f"form {f}", f, FIXED_ALPHA) for f in FORMS])  # fmt: skip
+    variants = (
+        [(f"alpha {a}", FIXED_FORM, a) for a in ALPHAS]
+        if experiment == "fig10"
+        else [(f"form {f}", f, FIXED_ALPHA) for f in FORMS]
+    )
     fig, ax = plt.subplots(figsize=(6.5, 3.6))
     rows = []
     for label, form, alpha in variants:
-        traces = [lyapunov_trace(root, Job("diffusion_lac", MAIN_SEA, "s_surface", s,
-                                   f"fixed-{form}-alpha{alpha}")) for s in seeds]  # fmt: skip
+        traces = [
+            lyapunov_trace(
+                root, Job("diffusion_lac", MAIN_SEA, "s_surface", s, f"fixed-{form}-alpha{alpha}")
+            )
+            for s in seeds
+        ]
         traces = [t for t in traces if t is not None]
         if not traces:
             continue
         pooled = pool_traces(traces)
         mean, spread, length = pooled["mean"], pooled["std"], len(pooled["mean"])
         (line,) = ax.plot(range(length), mean, label=f"{label} ({len(traces)} of {len(seeds)})")
-        ax.fill_between(range(length), [m - s for m, s in zip(mean, spread, strict=True)],
-                        [m + s for m, s in zip(mean, spread, strict=True)],
-                        color=line.get_color(), alpha=0.15)  # fmt: skip
+        ax.fill_between(
+            range(length),
+            [m - s for m, s in zip(mean, spread, strict=True)],
+            [m + s for m, s in zip(mean, spread, strict=True)],
+            color=line.get_color(),
+            alpha=0.15,
+        )
         first, last = tenth_means(pooled)
         running = sum(n > 0 for n in pooled["episodes"])  # decisions with an episode on
-        rows.append({"variant": label, "runs": len(traces), "decisions": running,
-                     "L_first_tenth": first, "L_last_tenth": last})  # fmt: skip
+        rows.append(
+            {
+                "variant": label,
+                "runs": len(traces),
+                "decisions": running,
+                "L_first_tenth": first,
+                "L_last_tenth": last,
+            }
+        )
     ax.set_xlabel("decision")
     ax.set_ylabel("L(s, a) of the executed action")
     if ax.lines:
         ax.legend(fontsize="small", title="runs of the seeds", title_fontsize="small")
     else:
-        ax.text(0.5, 0.5, "not run yet", ha="center", va="center", transform=ax.transAxes,
-                color="0.5")  # fmt: skip
+        ax.text(
+            0.5, 0.5, "not run yet", ha="center", va="center", transform=ax.transAxes, color="0.5"
+        )
     paths = [_save(fig, Path(out_dir) / f"{experiment}.png")]
     return paths + write_table(
         out_dir,

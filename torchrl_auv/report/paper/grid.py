@@ -65,12 +65,23 @@ BUDGETS: dict[str, dict[str, dict[str, object]]] = {
         "sac": {"collector.init_random_frames": 100},
         "optim": {"optim.updates_per_batch": 5},
         "checkpoint": {"checkpoint.every_frames": 100},
-        "eval": {"eval.steps": 50, "eval.num_envs": 2, "eval.every_frames": 100,
-                 "eval.curve_steps": 50, "eval.curve_envs": 1, "eval.workers": 1},
-        "proposer": {"proposer.demo_batches": 1, "proposer.demo_episodes": 2,
-                     "proposer.demo_steps": 100, "proposer.demo_workers": 1,
-                     "proposer.pretrain_steps": 50, "proposer.dagger_batches": 1,
-                     "proposer.dagger_steps": 20},
+        "eval": {
+            "eval.steps": 50,
+            "eval.num_envs": 2,
+            "eval.every_frames": 100,
+            "eval.curve_steps": 50,
+            "eval.curve_envs": 1,
+            "eval.workers": 1,
+        },
+        "proposer": {
+            "proposer.demo_batches": 1,
+            "proposer.demo_episodes": 2,
+            "proposer.demo_steps": 100,
+            "proposer.demo_workers": 1,
+            "proposer.pretrain_steps": 50,
+            "proposer.dagger_batches": 1,
+            "proposer.dagger_steps": 20,
+        },
     },
     "paper": {
         "": {"preset": "paper"},
@@ -82,7 +93,7 @@ BUDGETS: dict[str, dict[str, dict[str, object]]] = {
         "checkpoint": {"checkpoint.every_frames": 10000},
         "replay": {"checkpoint.replay_buffer": True},
     },
-}  # fmt: skip
+}
 #: the groups of :data:`BUDGETS` that apply to each framework (its config's groups and itself)
 _GROUPS = {
     "sac": ("", "env", "collector", "optim", "checkpoint", "replay", "eval", "sac"),
@@ -108,8 +119,12 @@ class Job:
     def ranks(self) -> bool:
         """Whether it evaluates each rank of its selection alone (OA, CA1-CA4: an evaluation
         each): only the jobs of Fig. 8/9, the full framework as preset in the main sea."""
-        return (self.framework == "diffusion_lac" and self.sea == MAIN_SEA
-                and self.controller == "s_surface" and not self.variant)  # fmt: skip
+        return (
+            self.framework == "diffusion_lac"
+            and self.sea == MAIN_SEA
+            and self.controller == "s_surface"
+            and not self.variant
+        )
 
     @property
     def name(self) -> str:
@@ -135,9 +150,15 @@ class Job:
             # the buffer never evicts within the job (the same samples as the preset's 1e6)
             # and a checkpoint stores its capacity, not its fill
             values["replay_buffer.size"] = frames_of_job
-        values.update({"env.sea_state": self.sea, "env.controller": self.controller,
-                       "seed": self.seed, "eval.sea_states": f"[{self.sea}]",
-                       "run_dir": str(root / "jobs" / self.name)})  # fmt: skip
+        values.update(
+            {
+                "env.sea_state": self.sea,
+                "env.controller": self.controller,
+                "seed": self.seed,
+                "eval.sea_states": f"[{self.sea}]",
+                "run_dir": str(root / "jobs" / self.name),
+            }
+        )
         if self.framework != "sac":
             values["proposer.cache_dir"] = str(root / "first_stage")
         if self.framework in ("diffusion_rl", "diffusion_lac"):  # OA, CA1-CA4: Fig. 8/9's jobs
@@ -146,17 +167,33 @@ class Job:
         return [f"{key}={value}" for key, value in values.items()]
 
 
-def _jobs(frameworks: Iterable[str], seas: Iterable[str], controllers: Iterable[str],
-          seeds: Sequence[int], variant: str = "", **values: object) -> list[Job]:  # fmt: skip
-    return [Job(f, sea, c, s, variant, dict(values)) for f in frameworks for sea in seas
-            for c in controllers for s in seeds]  # fmt: skip
+def _jobs(
+    frameworks: Iterable[str],
+    seas: Iterable[str],
+    controllers: Iterable[str],
+    seeds: Sequence[int],
+    variant: str = "",
+    **values: object,
+) -> list[Job]:
+    return [
+        Job(f, sea, c, s, variant, dict(values))
+        for f in frameworks
+        for sea in seas
+        for c in controllers
+        for s in seeds
+    ]
 
 
 def _fixed(seeds: Sequence[int], form: str = FIXED_FORM, alpha: float = FIXED_ALPHA) -> list[Job]:
     """The full framework with the Lyapunov form and weight fixed (no advisor)."""
-    return _jobs(["diffusion_lac"], [MAIN_SEA], ["s_surface"], seeds, f"fixed-{form}-alpha{alpha}",
-                 **{"advisor.backend": "fixed", "advisor.form": form,
-                    "advisor.stability_weight": alpha})  # fmt: skip
+    return _jobs(
+        ["diffusion_lac"],
+        [MAIN_SEA],
+        ["s_surface"],
+        seeds,
+        f"fixed-{form}-alpha{alpha}",
+        **{"advisor.backend": "fixed", "advisor.form": form, "advisor.stability_weight": alpha},
+    )
 
 
 def _alpha(seeds: Sequence[int]) -> list[Job]:
@@ -177,11 +214,13 @@ EXPERIMENTS = {
     "fig4": lambda seeds: _jobs(["diffusion"], SEAS, ["s_surface"], seeds),
     "fig5_6": lambda seeds: _jobs(["diffusion"], [MAIN_SEA], ["s_surface"], seeds[:1]),
     # Fig. 7: RL, Diffusion+RL, Diffusion+RL (LAC) in every sea
-    "fig7": lambda seeds: _jobs(["sac", "diffusion_rl", "diffusion_lac"], SEAS, ["s_surface"],
-                                seeds),
+    "fig7": lambda seeds: _jobs(
+        ["sac", "diffusion_rl", "diffusion_lac"], SEAS, ["s_surface"], seeds
+    ),
     # Table II: the two frameworks x three controllers x ES, VES
-    "table2": lambda seeds: _jobs(["diffusion_rl", "diffusion_lac"], ["es", "ves"], CONTROLLERS,
-                                  seeds),
+    "table2": lambda seeds: _jobs(
+        ["diffusion_rl", "diffusion_lac"], ["es", "ves"], CONTROLLERS, seeds
+    ),
     # Table III: the four frameworks x three controllers (VES)
     "table3": lambda seeds: _jobs(FRAMEWORKS, [MAIN_SEA], CONTROLLERS, seeds),
     # Fig. 8/9: OA, CA1-CA4 and RL (LAC) of the full framework (VES)
@@ -193,15 +232,37 @@ EXPERIMENTS = {
     "advisor": lambda seeds: _main("diffusion_lac", seeds) + _fixed(seeds),
     # ... and an OpenAI-compatible model (e.g. the local SmolLM2 server at the presets'
     # advisor.base_url; a job whose endpoint does not answer is refused before any work)
-    "advisor_llm": lambda seeds: _jobs(["diffusion_lac"], [MAIN_SEA], ["s_surface"], seeds,
-                                       "openai", **{"advisor.backend": "openai"}),
-    "lyapunov_cost": lambda seeds: _main("diffusion_lac", seeds) + _jobs(
-        ["diffusion_lac"], [MAIN_SEA], ["s_surface"], seeds, "task_cost",
-        **{"lyapunov.cost": "task"}),
-    "sampler": lambda seeds: _main("diffusion_lac", seeds) + _jobs(
-        ["diffusion_lac"], [MAIN_SEA], ["s_surface"], seeds, "ddim10",
-        **{"proposer.sampler": "ddim", "proposer.num_inference_steps": 10}),
-}  # fmt: skip
+    "advisor_llm": lambda seeds: _jobs(
+        ["diffusion_lac"],
+        [MAIN_SEA],
+        ["s_surface"],
+        seeds,
+        "openai",
+        **{"advisor.backend": "openai"},
+    ),
+    "lyapunov_cost": lambda seeds: (
+        _main("diffusion_lac", seeds)
+        + _jobs(
+            ["diffusion_lac"],
+            [MAIN_SEA],
+            ["s_surface"],
+            seeds,
+            "task_cost",
+            **{"lyapunov.cost": "task"},
+        )
+    ),
+    "sampler": lambda seeds: (
+        _main("diffusion_lac", seeds)
+        + _jobs(
+            ["diffusion_lac"],
+            [MAIN_SEA],
+            ["s_surface"],
+            seeds,
+            "ddim10",
+            **{"proposer.sampler": "ddim", "proposer.num_inference_steps": 10},
+        )
+    ),
+}
 
 
 def experiment_jobs(experiment: str, seeds: Sequence[int]) -> list[Job]:
@@ -246,14 +307,20 @@ def grid(experiments: Iterable[str], seeds: Sequence[int]) -> list[Job]:
     by_name = lambda job: (order[job.framework], job.name)  # noqa: E731
     ordered: list[Job] = []
     for seed in dict.fromkeys(job.seed for job in found.values()):
-        groups = sorted((builder for builder in users if builder.seed == seed),
-                        key=lambda b: (-len(users[b]), SEAS.index(b.sea),
-                                       CONTROLLERS.index(b.controller)))  # fmt: skip
+        groups = sorted(
+            (builder for builder in users if builder.seed == seed),
+            key=lambda b: (-len(users[b]), SEAS.index(b.sea), CONTROLLERS.index(b.controller)),
+        )
         for builder in groups:
             ordered += [found[builder.name], *sorted(users[builder], key=by_name)]
-        alone = [job for job in found.values() if job.seed == seed and job.framework == "diffusion"
-                 and job not in users]  # fmt: skip
+        alone = [
+            job
+            for job in found.values()
+            if job.seed == seed and job.framework == "diffusion" and job not in users
+        ]
         ordered += sorted(alone, key=by_name)
-        ordered += sorted((job for job in found.values() if job.seed == seed
-                           and job.framework == "sac"), key=by_name)  # fmt: skip
+        ordered += sorted(
+            (job for job in found.values() if job.seed == seed and job.framework == "sac"),
+            key=by_name,
+        )
     return ordered

@@ -45,8 +45,9 @@ def first_stage_pattern(sea: str, seed: int, controller: str = "s_surface") -> s
     return f"{sea}-{controller}-*-seed{seed}-*"
 
 
-def first_stage_folder(root: Path, sea: str, seed: int, *, controller: str = "s_surface",
-                       records: bool = False) -> Path | None:  # fmt: skip
+def first_stage_folder(
+    root: Path, sea: str, seed: int, *, controller: str = "s_surface", records: bool = False
+) -> Path | None:
     """The built first stage of (``sea``, ``controller``, ``seed``) under
     ``root/first_stage`` (the grid's runs share it), ``None`` when none is built.
     ``records``: else its record restored from a results store (``root/first_stage_records``,
@@ -67,8 +68,10 @@ def read_eval(root: Path, job: Job) -> dict[str, dict[str, object]] | None:
     if not path.exists():
         return None
     with open(path, newline="") as handle:
-        return {row["policy"]: {k: parse_number(v) for k, v in row.items()}
-                for row in csv.DictReader(handle)}  # fmt: skip
+        return {
+            row["policy"]: {k: parse_number(v) for k, v in row.items()}
+            for row in csv.DictReader(handle)
+        }
 
 
 def mean_std(values: Sequence[float]) -> tuple[float, float]:
@@ -101,8 +104,10 @@ def window_means(curves: dict, key: str, window: int) -> tuple[float, float] | N
         return None
     first = [v for s, v in zip(steps, values, strict=True) if s <= window]
     last = [v for s, v in zip(steps, values, strict=True) if s > steps[-1] - window]
-    return (mean_std(first)[0] if first else math.nan,
-            mean_std(last)[0] if steps[-1] >= 2 * window else math.nan)  # fmt: skip
+    return (
+        mean_std(first)[0] if first else math.nan,
+        mean_std(last)[0] if steps[-1] >= 2 * window else math.nan,
+    )
 
 
 def job_rows(
@@ -155,6 +160,7 @@ def write_table(
         writer.writeheader()
         writer.writerows(rows)
     path_json = out_dir / f"{name}.json"
-    path_json.write_text(json.dumps({"header": header, "rows": list(rows), **(extra or {})},
-                                    indent=1, default=str))  # fmt: skip
+    path_json.write_text(
+        json.dumps({"header": header, "rows": list(rows), **(extra or {})}, indent=1, default=str)
+    )
     return [md, path_csv, path_json]

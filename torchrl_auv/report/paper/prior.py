@@ -135,8 +135,10 @@ def extreme_shares(root: str | Path, jobs: Sequence[Job], window: int = 5000) ->
     batches: exploration on). A pick blind to the candidates' order gives ``2 / K``. (The
     proposer alone, framework ``diffusion``, logs it too, but over its own
     ``alone_candidates`` draws, so it is left out.)"""
-    out = {f: {d: {"jobs": 0, "first": [], "last": []} for d in ACTION_DIMS}
-           for f in FRAMEWORKS_WITH_PRIOR}  # fmt: skip
+    out = {
+        f: {d: {"jobs": 0, "first": [], "last": []} for d in ACTION_DIMS}
+        for f in FRAMEWORKS_WITH_PRIOR
+    }
     for job in jobs:
         folder = Path(root) / "jobs" / job.name
         curve = folder / "train_curve.csv"
@@ -160,8 +162,9 @@ def format_extreme_shares(shares: dict, num_candidates: int, window: int = 5000)
     """:func:`extreme_shares` as the results page's Markdown lines."""
     frameworks = [f for f in shares if any(c["jobs"] for c in shares[f].values())]
     if not frameworks:
-        return ["*No job has logged which candidate it executed yet "
-                "(`train/selected_extreme_<d>`).*"]  # fmt: skip
+        return [
+            "*No job has logged which candidate it executed yet (`train/selected_extreme_<d>`).*"
+        ]
     blind = 2 / num_candidates
     lines = [
         f"Which candidate was executed while the job trained: the share of AUV-decisions whose "
@@ -179,8 +182,9 @@ def format_extreme_shares(shares: dict, num_candidates: int, window: int = 5000)
     for dim in ACTION_DIMS:
         for part in ("first", "last"):
             values = [shares[f][dim][part] for f in frameworks]
-            cells = [mean_std_text(*v, single="one job") if math.isfinite(v[0]) else "-"
-                     for v in values]  # fmt: skip
+            cells = [
+                mean_std_text(*v, single="one job") if math.isfinite(v[0]) else "-" for v in values
+            ]
             lines.append(f"| {dim}, {part} {window:,} | {' | '.join(cells)} |")
     return lines
 
@@ -192,8 +196,10 @@ def _term_costs(row: dict) -> dict[str, float] | None:
     cost = row.get("cost_mean")
     if not all(isinstance(v, float) for v in [*shares, cost]):
         return None
-    return {**{t: cost * share for t, share in zip(COST_TERMS_V2, shares, strict=True)},
-            "total": cost}  # fmt: skip
+    return {
+        **{t: cost * share for t, share in zip(COST_TERMS_V2, shares, strict=True)},
+        "total": cost,
+    }
 
 
 def cost_term_changes(root: str | Path, jobs: Sequence[Job]) -> dict[str, dict]:
@@ -241,8 +247,9 @@ def format_cost_term_changes(changes: dict[str, dict]) -> list[str]:
     """:func:`cost_term_changes` as the results page's Markdown lines."""
     frameworks = [f for f, cell in changes.items() if cell["jobs"]]
     if not frameworks:
-        return ["*No finished Diffusion+RL or Diffusion+RL (LAC) job has its cost split by "
-                "term yet.*"]  # fmt: skip
+        return [
+            "*No finished Diffusion+RL or Diffusion+RL (LAC) job has its cost split by term yet.*"
+        ]
     left_out = sum(changes[f]["ended_early"] for f in changes)
     lines = [
         "Where the cost changed at the end: each job's cost per AUV-decision minus its "

@@ -61,9 +61,11 @@ def sitting_hours(sittings: Sequence[dict]) -> float:
     """The hours of ``sittings`` (``store.read_sittings``), each from its start to its last
     finished job (none for a sitting without one); sittings at the same time (two
     ``run_all.py`` at once) count their shared hours once: the union of their spans."""
-    spans = sorted((datetime.datetime.fromisoformat(s["start"]),
-                    datetime.datetime.fromisoformat(s["end"]))
-                   for s in sittings if s.get("end"))  # fmt: skip
+    spans = sorted(
+        (datetime.datetime.fromisoformat(s["start"]), datetime.datetime.fromisoformat(s["end"]))
+        for s in sittings
+        if s.get("end")
+    )
     seconds, reached = 0.0, None
     for start, end in spans:
         start = start if reached is None else max(start, reached)
@@ -73,8 +75,13 @@ def sitting_hours(sittings: Sequence[dict]) -> float:
     return seconds / 3600.0
 
 
-def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | None = None,
-                sittings: Sequence[dict] = ()) -> dict:  # fmt: skip
+def grid_status(
+    root: str | Path,
+    jobs: Sequence[Job],
+    *,
+    store: str | Path | None = None,
+    sittings: Sequence[dict] = (),
+) -> dict:
     """Each job's state under ``root`` (finished also where only the results ``store`` holds
     it), counts by framework, and the rate of the ``sittings`` (``store.read_sittings``).
 
@@ -100,9 +107,15 @@ def grid_status(root: str | Path, jobs: Sequence[Job], *, store: str | Path | No
     hours = sitting_hours(sittings)
     in_sittings = sum(int(s.get("jobs_finished", 0)) for s in sittings)
     rate = in_sittings / hours if hours > 0 and in_sittings else math.nan
-    return {"jobs": rows, "counts": counts, "finished": finished, "total": len(rows),
-            "sittings": len(sittings), "rate_per_hour": rate,
-            "hours_left": (len(rows) - finished) / rate}  # fmt: skip
+    return {
+        "jobs": rows,
+        "counts": counts,
+        "finished": finished,
+        "total": len(rows),
+        "sittings": len(sittings),
+        "rate_per_hour": rate,
+        "hours_left": (len(rows) - finished) / rate,
+    }
 
 
 def format_status(status: dict) -> str:
@@ -113,20 +126,24 @@ def format_status(status: dict) -> str:
         if state == "stopped" and frames:
             label = f"checkpoint at {frames:,} frames"
         lines.append(f"  {label:<30} {name}")
-    lines.append(f"finished {status['finished']} of {status['total']}; by framework "
-                 "(finished / started / not started):")  # fmt: skip
+    lines.append(
+        f"finished {status['finished']} of {status['total']}; by framework "
+        "(finished / started / not started):"
+    )
     for framework, count in status["counts"].items():
         if sum(count.values()):
-            lines.append(f"  {framework:<14} {count['done']} / {count['stopped']} / "
-                         f"{count['new']}")  # fmt: skip
+            lines.append(f"  {framework:<14} {count['done']} / {count['stopped']} / {count['new']}")
     rate = status["rate_per_hour"]
     if not math.isnan(rate):
-        lines.append(f"at the sittings' rate so far ({rate:.2f} jobs per hour) the jobs not "
-                     f"finished take about {status['hours_left']:.1f} h")  # fmt: skip
+        lines.append(
+            f"at the sittings' rate so far ({rate:.2f} jobs per hour) the jobs not "
+            f"finished take about {status['hours_left']:.1f} h"
+        )
     elif status["sittings"]:
-        lines.append("the sittings recorded have finished no job yet: no estimate of the time "
-                     "left")  # fmt: skip
+        lines.append("the sittings recorded have finished no job yet: no estimate of the time left")
     else:
-        lines.append("no sitting recorded (the results store, store=..., records them): no "
-                     "estimate of the time left")  # fmt: skip
+        lines.append(
+            "no sitting recorded (the results store, store=..., records them): no "
+            "estimate of the time left"
+        )
     return "\n".join(lines)

@@ -42,8 +42,12 @@ TABLE2 = {
 
 
 def _t3(yaw, yaw_std, depth, depth_std) -> dict[str, float]:
-    return {"heading_error_mean": yaw, "heading_error_std": yaw_std,
-            "depth_error_mean": depth, "depth_error_std": depth_std}  # fmt: skip
+    return {
+        "heading_error_mean": yaw,
+        "heading_error_std": yaw_std,
+        "depth_error_mean": depth,
+        "depth_error_std": depth_std,
+    }
 
 
 #: (framework, controller) -> metric -> value (the paper names no sea for Table III)
@@ -63,12 +67,22 @@ TABLE3 = {
 }
 
 #: Fig. 8: episode return (x 10^3) per action strategy, from the paper's text
-FIG8_RETURN_E3 = {"OA": -4620.9, "CA1": -4931.1, "RL": -5193.4, "CA2": -5327.7,
-                  "CA3": -5665.0, "CA4": -8330.8}  # fmt: skip
+FIG8_RETURN_E3 = {
+    "OA": -4620.9,
+    "CA1": -4931.1,
+    "RL": -5193.4,
+    "CA2": -5327.7,
+    "CA3": -5665.0,
+    "CA4": -8330.8,
+}
 
 #: Fig. 9: SDR ("MBit/s"), SSN and EC (W) per action strategy, from the paper's text (it gives
 #: no CA3 numbers, and EC only for OA and CA4)
-FIG9 = {"OA": {"sdr_mbit": 128.0, "ssn": 67.0, "ec_w": 417.0},
-        "CA1": {"sdr_mbit": 121.0, "ssn": 64.0}, "CA2": {"sdr_mbit": 113.0, "ssn": 60.0},
-        "CA3": {}, "CA4": {"sdr_mbit": 53.0, "ssn": 27.0, "ec_w": 378.0},
-        "RL": {"sdr_mbit": 105.0, "ssn": 55.0}}  # fmt: skip
+FIG9 = {
+    "OA": {"sdr_mbit": 128.0, "ssn": 67.0, "ec_w": 417.0},
+    "CA1": {"sdr_mbit": 121.0, "ssn": 64.0},
+    "CA2": {"sdr_mbit": 113.0, "ssn": 60.0},
+    "CA3": {},
+    "CA4": {"sdr_mbit": 53.0, "ssn": 27.0, "ec_w": 378.0},
+    "RL": {"sdr_mbit": 105.0, "ssn": 55.0},
+}

@@ -29,15 +29,17 @@ REPORTS: dict[str, Callable] = {
     "fig8_9": figures.fig8_9,
     "fig10": lambda root, out, seeds, header: (
         figures.fig10_11(root, out, seeds, header, "fig10")
-        + tables.ablation_tables(root, out, seeds, header, "fig10")),
+        + tables.ablation_tables(root, out, seeds, header, "fig10")
+    ),
     "fig11": lambda root, out, seeds, header: (
         figures.fig10_11(root, out, seeds, header, "fig11")
-        + tables.ablation_tables(root, out, seeds, header, "fig11")),
+        + tables.ablation_tables(root, out, seeds, header, "fig11")
+    ),
     "advisor": partial(tables.ablation_tables, experiment="advisor"),
     "advisor_llm": partial(tables.ablation_tables, experiment="advisor"),
     "lyapunov_cost": partial(tables.ablation_tables, experiment="lyapunov_cost"),
     "sampler": partial(tables.ablation_tables, experiment="sampler"),
-}  # fmt: skip
+}
 #: the fixed-schedule tracking table per budget: runs per cell and seconds per run
 TABLE3_FIXED = {"quick": (1, 20.0), "paper": (4, 300.0)}
 #: the rate-model table per budget: held-out scenes per sea and decisions per scene
@@ -76,8 +78,9 @@ def write_report(
     train nothing: the budget and what they ran). Returns the written paths."""
     unknown = [e for e in experiments if e not in REPORTS and e not in STANDALONE]
     if unknown:
-        raise ValueError(f"experiments {unknown} are unknown; known: "
-                         f"{sorted([*REPORTS, *STANDALONE])}")  # fmt: skip
+        raise ValueError(
+            f"experiments {unknown} are unknown; known: {sorted([*REPORTS, *STANDALONE])}"
+        )
     root = Path(root)
     out = root / "report"
     header = (
@@ -91,17 +94,23 @@ def write_report(
         folder.mkdir(parents=True, exist_ok=True)
         if experiment == "table3_fixed":
             runs, duration = TABLE3_FIXED[budget]
-            written += tables.table3_fixed(folder, f"budget {budget}", runs=runs,
-                                           duration=duration)  # fmt: skip
+            written += tables.table3_fixed(folder, f"budget {budget}", runs=runs, duration=duration)
         elif experiment == "rate_models":
             scenes, steps = RATE_MODELS[budget]
             written += tables.rate_models(folder, f"budget {budget}", scenes=scenes, steps=steps)
         else:
             written += REPORTS[experiment](root, folder, list(seeds), header)
-    facts = {"budget": budget, "frames": frames, "seeds": list(seeds),
-             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-             "commit": _commit(), "command": command, "machine": platform.platform(),
-             "processor": platform.processor(), "config": dict(config or {})}  # fmt: skip
+    facts = {
+        "budget": budget,
+        "frames": frames,
+        "seeds": list(seeds),
+        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "commit": _commit(),
+        "command": command,
+        "machine": platform.platform(),
+        "processor": platform.processor(),
+        "config": dict(config or {}),
+    }
     run = out / "run.json"
     run.write_text(json.dumps(facts, indent=1, default=str))
     return [*written, run]

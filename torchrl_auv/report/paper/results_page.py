@@ -47,67 +47,114 @@ NUM_CANDIDATES = 5
 
 #: experiment -> (title, what it shows, its figures, its tables), in the paper's order
 SECTIONS: dict[str, tuple[str, str, tuple[str, ...], tuple[str, ...]]] = {
-    "fig4": ("Fig. 4: the proposer's training loss",
-             "The denoising loss of the first stage (behaviour cloning, then DAgger), training "
-             "and held-out, per sea; the inset is the final fifth.", ("fig4.png",), ("fig4",)),
-    "fig5_6": ("Fig. 5/6: K = 5 candidates at three denoising stages",
-               "The proposer's five candidate plans rolled out from one held-out state (VES, "
-               "seed 0) after a few, half and all of the denoising steps: top view of one AUV "
-               "(Fig. 5), 3-D for two (Fig. 6).", ("fig5.png", "fig6.png"), ()),
-    "fig7": ("Fig. 7: learning curves",
-             "The policy being trained, evaluated deterministically on held-out scenes of its "
-             "sea during training: cost per AUV-decision (the paper plots the return), SDR, SSN "
-             "and EC; mean and band (± one std) over seeds. Second, as the paper's Fig. 7 plots "
-             "its training episodes: the training itself (the collected batches, exploration "
-             "on, not held-out scenes): each batch's cost per AUV-decision and the mean SDR and "
-             f"SSN of the episodes that ended in it, averaged in {TRAIN_BIN_FRAMES:,}-frame "
-             "bins.", ("fig7.png", "fig7_training.png"), ()),
-    "table2": ("Table II: controllers x seas",
-               "Diffusion+RL and Diffusion+RL (LAC) with each low-level controller in ES and "
-               "VES, at the end of training, on held-out scenes.", (), ("table2",)),
-    "rate_models": ("Both rate models: what the paper's link-rate formula does",
-                    "The scripted expert (no learning) with our Shannon rate and with the "
-                    "paper's formula, beside the paper's Table II numbers. Over an episode the "
-                    "formula about doubles the expert's SDR and SSN (not the tenfold of one "
-                    "link at a fixed range), and with it the expert still delivers about a "
-                    "third of the paper's SDR: the formula accounts for part of the gap, not "
-                    "all of it (and our SDR is Mbit per episode where the paper writes "
-                    "MBit/s).", (), ("rate_models",)),
-    "table3": ("Table III: yaw and depth tracking errors",
-               "Measured in the data-collection evaluation episodes (VES) of the four "
-               "frameworks with each controller.", (), ("table3",)),
-    "table3_fixed": ("Tracking with a fixed schedule (a separate experiment)",
-                     "The controllers alone following a fixed heading and depth schedule: no "
-                     "learning involved, labelled apart from Table III.", (), ("table3_fixed",)),
-    "fig8_9": ("Fig. 8/9: OA, CA1-CA4 and RL (LAC)",
-               "The full framework's selection executed at a fixed rank (OA: the Lyapunov "
-               "critic's choice; CA1-CA4: the next ranks) and its actor alone, on the same "
-               "held-out scenes; in grey, not in the paper, the same jobs' proposer alone (the "
-               "medoid of its own draws, 10 in the paper presets where the selection ranks "
-               "K = 5; no critic), scripted expert and random actions.",
-               ("fig8_9.png",), ("fig8_9",)),
-    "fig10": ("Fig. 10: the Lyapunov value for fixed stability weights",
-              "The executed action's Lyapunov value along held-out episodes, alpha in {0.05, "
-              "0.1, 0.25, 0.5} (softplus form, no advisor); mean and band over episodes and "
-              "seeds.", ("fig10.png",), ("fig10_lyapunov", "fig10")),
-    "fig11": ("Fig. 11: the Lyapunov value for three forms",
-              "As Fig. 10 for the softplus, squared and log forms (alpha 0.1).", ("fig11.png",),
-              ("fig11_lyapunov", "fig11")),
-    "advisor": ("Beyond the paper: the advisor ablation",
-                "A fixed Lyapunov spec against the rule-based advisor (the presets) and, when "
-                "run, an OpenAI-compatible model (the local SmolLM2-135M under llama.cpp). "
-                "Consultations and spec changes per job come from each job's decision log "
-                "(advisor.jsonl): an advisor that changes nothing trains the fixed spec's job.",
-                (), ("advisor",)),
-    "lyapunov_cost": ("Beyond the paper: the Lyapunov cost",
-                      "The Lyapunov critic trained on the task cost against the stability "
-                      "cost (the presets; recipes/README.md explains why).", (),
-                      ("lyapunov_cost",)),
-    "sampler": ("Beyond the paper: 50 DDPM vs 10 DDIM steps",
-                "Cost per AUV-decision, SDR, SSN and EC, and the proposer's time per "
-                "decision (both AUVs of one scene).", (),
-                ("sampler",)),
-}  # fmt: skip
+    "fig4": (
+        "Fig. 4: the proposer's training loss",
+        "The denoising loss of the first stage (behaviour cloning, then DAgger), training "
+        "and held-out, per sea; the inset is the final fifth.",
+        ("fig4.png",),
+        ("fig4",),
+    ),
+    "fig5_6": (
+        "Fig. 5/6: K = 5 candidates at three denoising stages",
+        "The proposer's five candidate plans rolled out from one held-out state (VES, "
+        "seed 0) after a few, half and all of the denoising steps: top view of one AUV "
+        "(Fig. 5), 3-D for two (Fig. 6).",
+        ("fig5.png", "fig6.png"),
+        (),
+    ),
+    "fig7": (
+        "Fig. 7: learning curves",
+        "The policy being trained, evaluated deterministically on held-out scenes of its "
+        "sea during training: cost per AUV-decision (the paper plots the return), SDR, SSN "
+        "and EC; mean and band (± one std) over seeds. Second, as the paper's Fig. 7 plots "
+        "its training episodes: the training itself (the collected batches, exploration "
+        "on, not held-out scenes): each batch's cost per AUV-decision and the mean SDR and "
+        f"SSN of the episodes that ended in it, averaged in {TRAIN_BIN_FRAMES:,}-frame "
+        "bins.",
+        ("fig7.png", "fig7_training.png"),
+        (),
+    ),
+    "table2": (
+        "Table II: controllers x seas",
+        "Diffusion+RL and Diffusion+RL (LAC) with each low-level controller in ES and "
+        "VES, at the end of training, on held-out scenes.",
+        (),
+        ("table2",),
+    ),
+    "rate_models": (
+        "Both rate models: what the paper's link-rate formula does",
+        "The scripted expert (no learning) with our Shannon rate and with the "
+        "paper's formula, beside the paper's Table II numbers. Over an episode the "
+        "formula about doubles the expert's SDR and SSN (not the tenfold of one "
+        "link at a fixed range), and with it the expert still delivers about a "
+        "third of the paper's SDR: the formula accounts for part of the gap, not "
+        "all of it (and our SDR is Mbit per episode where the paper writes "
+        "MBit/s).",
+        (),
+        ("rate_models",),
+    ),
+    "table3": (
+        "Table III: yaw and depth tracking errors",
+        "Measured in the data-collection evaluation episodes (VES) of the four "
+        "frameworks with each controller.",
+        (),
+        ("table3",),
+    ),
+    "table3_fixed": (
+        "Tracking with a fixed schedule (a separate experiment)",
+        "The controllers alone following a fixed heading and depth schedule: no "
+        "learning involved, labelled apart from Table III.",
+        (),
+        ("table3_fixed",),
+    ),
+    "fig8_9": (
+        "Fig. 8/9: OA, CA1-CA4 and RL (LAC)",
+        "The full framework's selection executed at a fixed rank (OA: the Lyapunov "
+        "critic's choice; CA1-CA4: the next ranks) and its actor alone, on the same "
+        "held-out scenes; in grey, not in the paper, the same jobs' proposer alone (the "
+        "medoid of its own draws, 10 in the paper presets where the selection ranks "
+        "K = 5; no critic), scripted expert and random actions.",
+        ("fig8_9.png",),
+        ("fig8_9",),
+    ),
+    "fig10": (
+        "Fig. 10: the Lyapunov value for fixed stability weights",
+        "The executed action's Lyapunov value along held-out episodes, alpha in {0.05, "
+        "0.1, 0.25, 0.5} (softplus form, no advisor); mean and band over episodes and "
+        "seeds.",
+        ("fig10.png",),
+        ("fig10_lyapunov", "fig10"),
+    ),
+    "fig11": (
+        "Fig. 11: the Lyapunov value for three forms",
+        "As Fig. 10 for the softplus, squared and log forms (alpha 0.1).",
+        ("fig11.png",),
+        ("fig11_lyapunov", "fig11"),
+    ),
+    "advisor": (
+        "Beyond the paper: the advisor ablation",
+        "A fixed Lyapunov spec against the rule-based advisor (the presets) and, when "
+        "run, an OpenAI-compatible model (the local SmolLM2-135M under llama.cpp). "
+        "Consultations and spec changes per job come from each job's decision log "
+        "(advisor.jsonl): an advisor that changes nothing trains the fixed spec's job.",
+        (),
+        ("advisor",),
+    ),
+    "lyapunov_cost": (
+        "Beyond the paper: the Lyapunov cost",
+        "The Lyapunov critic trained on the task cost against the stability "
+        "cost (the presets; recipes/README.md explains why).",
+        (),
+        ("lyapunov_cost",),
+    ),
+    "sampler": (
+        "Beyond the paper: 50 DDPM vs 10 DDIM steps",
+        "Cost per AUV-decision, SDR, SSN and EC, and the proposer's time per "
+        "decision (both AUVs of one scene).",
+        (),
+        ("sampler",),
+    ),
+}
 
 #: The reasons we know of for where our numbers and the paper's part: facts measured in this
 #: repository (the sources named), written once here.
@@ -202,9 +249,11 @@ def _compute_hours(root: Path, jobs: Sequence[Job]) -> tuple[float, int]:
         if not summary.exists():
             continue
         text = summary.read_text()
-        parts = (_found_number(r"built in ([-+\d.eE]+) s", text),
-                 _summary_number(text, "wall time this session (s)"),
-                 _summary_number(text, "evaluation wall time (s)"))  # fmt: skip
+        parts = (
+            _found_number(r"built in ([-+\d.eE]+) s", text),
+            _summary_number(text, "wall time this session (s)"),
+            _summary_number(text, "evaluation wall time (s)"),
+        )
         seconds += sum(part for part in parts if part is not None)
     return seconds / 3600.0, finished
 
@@ -217,9 +266,11 @@ def _wall_time(sittings: Sequence[dict]) -> str:
     hours = sitting_hours(sittings)
     finished = sum(s.get("jobs_finished", 0) for s in sittings)
     plural = "s" if len(sittings) != 1 else ""
-    return (f"{hours:.1f} h over {len(sittings)} sitting{plural} (each from its start to its last "
-            f"finished job, hours at the same time counted once; {finished} jobs finished in "
-            "them, the rest before the record began)")  # fmt: skip
+    return (
+        f"{hours:.1f} h over {len(sittings)} sitting{plural} (each from its start to its last "
+        f"finished job, hours at the same time counted once; {finished} jobs finished in "
+        "them, the rest before the record began)"
+    )
 
 
 def _time_left(root: Path, jobs: Sequence[Job], sittings: Sequence[dict]) -> str:
@@ -257,41 +308,61 @@ def _training_speed(root: Path, jobs: Sequence[Job]) -> str:
     for label, values in rates.items():
         values.sort()
         spread = f", {values[0]:.0f}-{values[-1]:.0f}" if len(values) > 1 else ""
-        parts.append(f"{label} {statistics.median(values):.0f}{spread} ({len(values)} "
-                     f"job{'s' if len(values) > 1 else ''})")  # fmt: skip
+        parts.append(
+            f"{label} {statistics.median(values):.0f}{spread} ({len(values)} "
+            f"job{'s' if len(values) > 1 else ''})"
+        )
     if not parts:
         return "no finished training job yet"
     return "frames/s per job as the grid ran them, median and range: " + "; ".join(parts)
 
 
-def _run_facts(root: Path, jobs: Sequence[Job], seeds: Sequence[int],
-               sittings: Sequence[dict]) -> list[str]:  # fmt: skip
+def _run_facts(
+    root: Path, jobs: Sequence[Job], seeds: Sequence[int], sittings: Sequence[dict]
+) -> list[str]:
     path = root / "report" / "run.json"
     run = json.loads(path.read_text()) if path.exists() else {}
     hours, finished = _compute_hours(root, jobs)
     frames = run.get("frames")
     rows = [
-        ("budget", f"{run.get('budget', '?')}" + (f", {frames:,} frames per training job "
-                                                   "(the proposer alone: its first stage, then "
-                                                   "1,000 acting frames)" if frames else "")),
-        ("seeds", f"training {list(seeds)}; evaluation on held-out scenes (`eval.seed` 100000) "
-                  "of each job's sea"),
+        (
+            "budget",
+            f"{run.get('budget', '?')}"
+            + (
+                f", {frames:,} frames per training job "
+                "(the proposer alone: its first stage, then "
+                "1,000 acting frames)"
+                if frames
+                else ""
+            ),
+        ),
+        (
+            "seeds",
+            f"training {list(seeds)}; evaluation on held-out scenes (`eval.seed` 100000) "
+            "of each job's sea",
+        ),
         ("jobs finished", f"{finished} of {len(jobs)}" + _time_left(root, jobs, sittings)),
-        ("compute", f"{hours:.1f} h of one core, summed over the finished jobs' summaries "
-                    "(first-stage build, training of the last sitting, evaluation); "
-                    f"{run.get('config', {}).get('parallel', '?')} jobs at a time"),
+        (
+            "compute",
+            f"{hours:.1f} h of one core, summed over the finished jobs' summaries "
+            "(first-stage build, training of the last sitting, evaluation); "
+            f"{run.get('config', {}).get('parallel', '?')} jobs at a time",
+        ),
         ("wall time", _wall_time(sittings)),
         ("training speed", _training_speed(root, jobs)),
         ("report written", f"{run.get('date', '?')} at commit `{run.get('commit', '?')}`"),
         ("command", f"`{run.get('command', '?')}`"),
         ("machine", f"{run.get('machine', '?')} {run.get('processor', '')}".strip()),
-    ]  # fmt: skip
+    ]
     return ["| | |", "|---|---|", *[f"| {k} | {v} |" for k, v in rows]]
 
 
 def _verdicts(rows: list[dict]) -> list[str]:
-    lines = ["| claim of the paper | where | verdict | comparisons (holds / within noise / "
-             "reversed within noise / reversed / not run) |", "|---|---|---|---|"]  # fmt: skip
+    lines = [
+        "| claim of the paper | where | verdict | comparisons (holds / within noise / "
+        "reversed within noise / reversed / not run) |",
+        "|---|---|---|---|",
+    ]
     for row in rows:
         outcomes = [o for o, _ in row["comparisons"]]
         counts = " / ".join(str(outcomes.count(o)) for o in OUTCOMES)

@@ -107,9 +107,12 @@ def _copy_first_stages(source: Path, target: Path) -> list[Path]:
     lacks."""
     if not source.is_dir():
         return []
-    return [path for folder in sorted(source.iterdir()) if not folder.name.startswith(".")
-            for path in _copy_marked(folder, target / folder.name, FIRST_STAGE_FILES,
-                                     "values.json")]  # fmt: skip
+    return [
+        path
+        for folder in sorted(source.iterdir())
+        if not folder.name.startswith(".")
+        for path in _copy_marked(folder, target / folder.name, FIRST_STAGE_FILES, "values.json")
+    ]
 
 
 def _copy_report_files(source: Path, target: Path, *, update: bool) -> list[Path]:
@@ -131,13 +134,18 @@ def _copy_report_files(source: Path, target: Path, *, update: bool) -> list[Path
 def _copy_finished(source: Path, target: Path, jobs: Iterable[Job]) -> list[Path]:
     """Copy :data:`STORED_FILES` of the jobs finished under ``source`` and not under
     ``target``; returns the written paths."""
-    return [path for job in jobs
-            for path in _copy_marked(source / "jobs" / job.name, target / "jobs" / job.name,
-                                     STORED_FILES, FINISHED_MARK)]  # fmt: skip
+    return [
+        path
+        for job in jobs
+        for path in _copy_marked(
+            source / "jobs" / job.name, target / "jobs" / job.name, STORED_FILES, FINISHED_MARK
+        )
+    ]
 
 
-def save_finished(root: str | Path, store: str | Path, jobs: Iterable[Job], *,
-                  report: bool = False) -> list[Path]:  # fmt: skip
+def save_finished(
+    root: str | Path, store: str | Path, jobs: Iterable[Job], *, report: bool = False
+) -> list[Path]:
     """Copy the outputs (:data:`STORED_FILES`) of ``jobs`` finished under the run folder
     ``root`` into ``store`` (``store/jobs/<job.name>/``), each job once: a job already in the
     store is left as it is. Its ``eval.csv`` is copied last, so a copy cut short is not taken

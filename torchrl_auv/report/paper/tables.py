@@ -39,8 +39,12 @@ from torchrl_auv.report.paper.published import TABLE2, TABLE3
 __all__ = ["ablation_tables", "table2", "table3", "table3_fixed"]
 
 #: the frameworks as the paper names them
-LABELS = {"sac": "RL (SAC)", "diffusion": "Diffusion", "diffusion_rl": "Diffusion+RL",
-          "diffusion_lac": "Diffusion+RL (LAC)"}  # fmt: skip
+LABELS = {
+    "sac": "RL (SAC)",
+    "diffusion": "Diffusion",
+    "diffusion_rl": "Diffusion+RL",
+    "diffusion_lac": "Diffusion+RL (LAC)",
+}
 
 
 def table2(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list[Path]:
@@ -61,11 +65,14 @@ def table2(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
                 row[f"{sea} runs"] = cell["runs"]
             rows.append(row)
     columns = ["framework", "controller"]
-    columns += [f"{who}{sea} {m}" for sea in ("es", "ves") for m in metrics
-                for who in ("", "paper ")]  # fmt: skip
+    columns += [
+        f"{who}{sea} {m}" for sea in ("es", "ves") for m in metrics for who in ("", "paper ")
+    ]
     columns += ["es runs", "ves runs"]
-    note = ("; SDR: ours is the data delivered per episode (Mbit) at the rate model named, the "
-            "paper's is in its own unit (MBit/s) of its link-rate formula")  # fmt: skip
+    note = (
+        "; SDR: ours is the data delivered per episode (Mbit) at the rate model named, the "
+        "paper's is in its own unit (MBit/s) of its link-rate formula"
+    )
     return write_table(out_dir, "table2", rows, columns, header=header + note)
 
 
@@ -79,8 +86,14 @@ def table3(root: Path, out_dir: Path, seeds: Sequence[int], header: str) -> list
         for controller in CONTROLLERS:
             jobs = [Job(framework, MAIN_SEA, controller, s) for s in seeds]
             paper = {f"paper {m}": v for m, v in TABLE3[framework, controller].items()}
-            rows.append({"framework": LABELS[framework], "controller": controller,
-                         **job_rows(root, jobs, None, metrics), **paper})  # fmt: skip
+            rows.append(
+                {
+                    "framework": LABELS[framework],
+                    "controller": controller,
+                    **job_rows(root, jobs, None, metrics),
+                    **paper,
+                }
+            )
     return write_table(
         out_dir,
         "table3",
@@ -97,18 +110,35 @@ def table3_fixed(out_dir: Path, header: str, *, runs: int, duration: float, seed
     filter, :func:`~torchrl_auv.report.tracking_table`)."""
     from torchrl_auv.report.tracking import tracking_table
 
-    rows, _ = tracking_table(CONTROLLERS, ("ideal", "es", "ves"), runs=runs, seed=seed,
-                             duration=duration)  # fmt: skip
-    columns = ["sea_state", "controller", "heading_error_mean", "heading_error_std",
-               "depth_error_mean", "depth_error_std", "kf_rms", "usbl_rms"]  # fmt: skip
-    note = (f"{header}; fixed schedule, no learning: {runs} runs of {duration:g} s per cell "
-            "(not the data-collection episodes of table3)")  # fmt: skip
+    rows, _ = tracking_table(
+        CONTROLLERS, ("ideal", "es", "ves"), runs=runs, seed=seed, duration=duration
+    )
+    columns = [
+        "sea_state",
+        "controller",
+        "heading_error_mean",
+        "heading_error_std",
+        "depth_error_mean",
+        "depth_error_std",
+        "kf_rms",
+        "usbl_rms",
+    ]
+    note = (
+        f"{header}; fixed schedule, no learning: {runs} runs of {duration:g} s per cell "
+        "(not the data-collection episodes of table3)"
+    )
     return write_table(out_dir, "table3_fixed", rows, columns, header=note)
 
 
-def rate_models(out_dir: Path, header: str, *, scenes: int, steps: int,
-                seas: Sequence[str] = ("ideal", "es", "ves"),
-                seed: int = 100000) -> list[Path]:  # fmt: skip
+def rate_models(
+    out_dir: Path,
+    header: str,
+    *,
+    scenes: int,
+    steps: int,
+    seas: Sequence[str] = ("ideal", "es", "ves"),
+    seed: int = 100000,
+) -> list[Path]:
     """What the link-rate model does to the paper's metrics (a separate experiment, no
     learning): the scripted expert with S-Surface on ``scenes`` held-out scenes (``seed``) of
     each sea for ``steps`` decisions, with our Shannon rate (``env.rate_model=shannon``, the
@@ -120,19 +150,37 @@ def rate_models(out_dir: Path, header: str, *, scenes: int, steps: int,
     rows = []
     for sea in seas:
         for rate_model in ("shannon", "paper"):
-            env = DataCollectionEnv(batch_size=[scenes], sea_state=sea, rate_model=rate_model,
-                                    seed=seed)  # fmt: skip
+            env = DataCollectionEnv(
+                batch_size=[scenes], sea_state=sea, rate_model=rate_model, seed=seed
+            )
             stats = episode_stats(env, make_policy("expert", env), steps)
             published = TABLE2.get(("diffusion_lac", "s_surface", sea), {})
-            rows.append({"sea_state": sea, "rate_model": rate_model,
-                         **{k: float(stats[k]) for k in ("sdr_mbit", "ssn", "ec_w")},
-                         **{f"paper {k}": published.get(k, (math.nan,))[0]
-                            for k in ("sdr_mbit", "ssn", "ec_w")}})  # fmt: skip
-    columns = ["sea_state", "rate_model", "sdr_mbit", "paper sdr_mbit", "ssn", "paper ssn",
-               "ec_w", "paper ec_w"]  # fmt: skip
-    note = (f"{header}; the scripted expert (no learning), S-Surface, {scenes} held-out scenes "
-            f"x {steps} decisions per sea and rate model; the paper's columns: its Diffusion+RL "
-            "(LAC), S-Surface (Table II; it names no ideal-sea numbers)")  # fmt: skip
+            rows.append(
+                {
+                    "sea_state": sea,
+                    "rate_model": rate_model,
+                    **{k: float(stats[k]) for k in ("sdr_mbit", "ssn", "ec_w")},
+                    **{
+                        f"paper {k}": published.get(k, (math.nan,))[0]
+                        for k in ("sdr_mbit", "ssn", "ec_w")
+                    },
+                }
+            )
+    columns = [
+        "sea_state",
+        "rate_model",
+        "sdr_mbit",
+        "paper sdr_mbit",
+        "ssn",
+        "paper ssn",
+        "ec_w",
+        "paper ec_w",
+    ]
+    note = (
+        f"{header}; the scripted expert (no learning), S-Surface, {scenes} held-out scenes "
+        f"x {steps} decisions per sea and rate model; the paper's columns: its Diffusion+RL "
+        "(LAC), S-Surface (Table II; it names no ideal-sea numbers)"
+    )
     return write_table(out_dir, "rate_models", rows, columns, header=note)
 
 
@@ -153,8 +201,9 @@ def _ablation_folder(root: Path, seed: int, variant: str) -> Path:
     return Path(root) / "jobs" / Job("diffusion_lac", MAIN_SEA, "s_surface", seed, variant).name
 
 
-def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str,
-                    experiment: str) -> list[Path]:  # fmt: skip
+def ablation_tables(
+    root: Path, out_dir: Path, seeds: Sequence[int], header: str, experiment: str
+) -> list[Path]:
     """Beyond the paper, the full framework in ``MAIN_SEA``: ``advisor`` (the rule-based
     advisor against the spec fixed at the presets' start and, when the ``advisor_llm``
     experiment ran, a model behind ``advisor.base_url``; with each job's consultations and
@@ -164,16 +213,22 @@ def ablation_tables(root: Path, out_dir: Path, seeds: Sequence[int], header: str
     fixed weight and form)."""
     fixed = f"fixed-{FIXED_FORM}-alpha{FIXED_ALPHA}"
     variants = {
-        "advisor": [("rule-based advisor (preset)", "", {}),
-                    (f"fixed: {FIXED_FORM}, alpha {FIXED_ALPHA}", fixed, {}),
-                    ("OpenAI-compatible model (experiment advisor_llm)", "openai", {})],
-        "lyapunov_cost": [("stability cost (preset)", "", {}),
-                          ("task cost (paper)", "task_cost", {})],
-        "sampler": [("the preset's sampler (paper: 50 DDPM)", "", {}),
-                    ("10 DDIM steps", "ddim10", {})],
+        "advisor": [
+            ("rule-based advisor (preset)", "", {}),
+            (f"fixed: {FIXED_FORM}, alpha {FIXED_ALPHA}", fixed, {}),
+            ("OpenAI-compatible model (experiment advisor_llm)", "openai", {}),
+        ],
+        "lyapunov_cost": [
+            ("stability cost (preset)", "", {}),
+            ("task cost (paper)", "task_cost", {}),
+        ],
+        "sampler": [
+            ("the preset's sampler (paper: 50 DDPM)", "", {}),
+            ("10 DDIM steps", "ddim10", {}),
+        ],
         "fig10": [(f"alpha {a}", f"fixed-{FIXED_FORM}-alpha{a}", {}) for a in ALPHAS],
         "fig11": [(f"form {f}", f"fixed-{f}-alpha{FIXED_ALPHA}", {}) for f in FORMS],
-    }[experiment]  # fmt: skip
+    }[experiment]
     rows = _variants(root, seeds, variants)
     extra, note = [], ""
     if experiment == "advisor":
@@ -270,8 +325,9 @@ def _advisor_log(root: Path, seeds: Sequence[int], variant: str) -> dict[str, fl
     return out
 
 
-def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5, *,
-                   earlier: Path | None = None) -> dict:  # fmt: skip
+def _sampling_time(
+    root: Path, variant: str, seed: int, repeats: int = 5, *, earlier: Path | None = None
+) -> dict:
     """The job's sampler (``.hydra/config.yaml``) and the seconds its proposer (the job's
     first-stage artefact) takes for one decision of both AUVs of a held-out scene: K
     candidates, the median of ``repeats`` timings on this machine's thread count. Where the
@@ -295,11 +351,17 @@ def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5, *,
     if stage is None:
         rows = json.loads(earlier.read_text())["rows"] if earlier and earlier.exists() else []
         found = [r["proposer_s_per_decision"] for r in rows if r.get("sampler") == label]
-        return {"sampler": label, "proposer_s_per_decision": found[0] if found else math.nan,
-                "timed": "by an earlier report" if found else ""}  # fmt: skip
+        return {
+            "sampler": label,
+            "proposer_s_per_decision": found[0] if found else math.nan,
+            "timed": "by an earlier report" if found else "",
+        }
     proposer = DiffusionProposer.load(stage / "proposer.pt")
-    proposer.configure_sampling(num_candidates=p["num_candidates"], sampler=p["sampler"],
-                                num_inference_steps=p["num_inference_steps"])  # fmt: skip
+    proposer.configure_sampling(
+        num_candidates=p["num_candidates"],
+        sampler=p["sampler"],
+        num_inference_steps=p["num_inference_steps"],
+    )
     env = make_history_env(MAIN_SEA, seed=100000, num_envs=1, history=p["history"])
     state = proposer.build_state(env.reset())
     seconds = []
@@ -308,5 +370,8 @@ def _sampling_time(root: Path, variant: str, seed: int, repeats: int = 5, *,
             start = time.perf_counter()
             proposer.sample(state)
             seconds.append(time.perf_counter() - start)
-    return {"sampler": label, "proposer_s_per_decision": sorted(seconds)[repeats // 2],
-            "timed": "here"}  # fmt: skip
+    return {
+        "sampler": label,
+        "proposer_s_per_decision": sorted(seconds)[repeats // 2],
+        "timed": "here",
+    }
