@@ -22,6 +22,7 @@ from torchrl_auv.envs.specs import (
     checked_action,
     checked_batch_size,
     controller_from_name,
+    scene_generator,
     unbounded_spec_like,
 )
 from torchrl_auv.envs.tracking import DEPTH_STEP, HEADING_STEP, RPM_SCALE
@@ -297,7 +298,7 @@ class DataCollectionEnv(EnvBase):
         self.task_metrics = iout.TaskMetrics(self.config)
         self._compiled_parts = None
         self.rng = torch.Generator()
-        self.set_seed(0 if seed is None else seed)
+        self.set_seed(seed)  # None: from entropy (scene_generator)
         self._make_specs()
 
     # -- keys ----------------------------------------------------------------------------
@@ -381,7 +382,7 @@ class DataCollectionEnv(EnvBase):
         self._state_keys = tuple(self.state_spec.keys(True, True))
 
     def _set_seed(self, seed: int | None) -> None:
-        self.rng = torch.Generator().manual_seed(int(seed) if seed is not None else 0)
+        self.rng = scene_generator(seed)
 
     # -- reset ---------------------------------------------------------------------------
     def _initial_state(self, shape: torch.Size) -> TensorDict:

@@ -1,4 +1,4 @@
-"""Small helpers shared by the env classes: specs from sample data and argument checks."""
+"""Small helpers shared by the env classes: specs from sample data, argument checks, seeds."""
 
 from __future__ import annotations
 
@@ -10,7 +10,13 @@ from torchrl.data import Composite, Unbounded
 
 from torchrl_auv.control import Controller, available_controllers, make_controller
 
-__all__ = ["checked_action", "checked_batch_size", "controller_from_name", "unbounded_spec_like"]
+__all__ = [
+    "checked_action",
+    "checked_batch_size",
+    "controller_from_name",
+    "scene_generator",
+    "unbounded_spec_like",
+]
 
 
 def unbounded_spec_like(td: TensorDictBase) -> Composite:
@@ -94,3 +100,22 @@ def checked_action(action: torch.Tensor, shape: Sequence[int], key: object) -> t
             "actions must be finite, in [-1, 1]"
         )
     return action.clamp(-1.0, 1.0)
+
+
+def scene_generator(seed: int | None) -> torch.Generator:
+    """The generator an env draws its scenes from: seeded with ``seed``, or, with ``None``,
+    from the OS's entropy (gymnasium's and TorchRL's convention: two envs built or seeded
+    without a seed differ; before, they all behaved as seed 0).
+
+    >>> a, b = scene_generator(3), scene_generator(3)
+    >>> torch.equal(torch.rand(2, generator=a), torch.rand(2, generator=b))
+    True
+    >>> scene_generator(None).initial_seed() != scene_generator(None).initial_seed()
+    True
+    """
+    generator = torch.Generator()
+    if seed is None:
+        generator.seed()
+    else:
+        generator.manual_seed(int(seed))
+    return generator

@@ -21,6 +21,7 @@ from torchrl_auv.envs.specs import (
     checked_action,
     checked_batch_size,
     controller_from_name,
+    scene_generator,
     unbounded_spec_like,
 )
 from torchrl_auv.envs.vehicles import (
@@ -142,7 +143,7 @@ class AUVTrackingEnv(EnvBase):
         self.vehicles = VehicleStack(self.sea, self.controller, dt=self.dt, compile=compile_physics)
         self.noise, self.localiser = self.vehicles.noise, self.vehicles.localiser
         self.rng = torch.Generator()
-        self.set_seed(0 if seed is None else seed)
+        self.set_seed(seed)  # None: from entropy (scene_generator)
         self._make_specs()
 
     # -- specs ---------------------------------------------------------------------------
@@ -181,7 +182,7 @@ class AUVTrackingEnv(EnvBase):
         )
 
     def _set_seed(self, seed: int | None) -> None:
-        self.rng = torch.Generator().manual_seed(int(seed) if seed is not None else 0)
+        self.rng = scene_generator(seed)
 
     # -- reset ---------------------------------------------------------------------------
     def _initial_state(self, shape: torch.Size) -> TensorDict:
