@@ -24,7 +24,6 @@ from torchrl.objectives import SoftUpdate
 
 from torchrl_auv import advisor as advisors
 from torchrl_auv.objectives import LyapunovActorCriticLoss, ResidualLACLoss, SelectionRule
-from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.checkpointing import SpecState
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
 from torchrl_auv.training.learner import Learner
@@ -33,7 +32,7 @@ from torchrl_auv.training.networks import (
     make_q_critic,
     observation_action_dims,
 )
-from torchrl_auv.training.residual import residual_bound
+from torchrl_auv.training.residual import backup_and_residual
 
 __all__ = [
     "LAC_LOGGED_KEYS",
@@ -179,8 +178,6 @@ def lac_from_config(
     critics bootstrap on; with ``cfg.residual.bound > 0`` ``actor`` is a residual actor held
     near the prior with ``cfg.residual.coef`` (the backup then on the actor, which acts)."""
     optim, advisor = cfg["optim"], cfg["advisor"]
-    residual = cfg.get("residual") or {}
-    on_prior = residual_bound(cfg) > 0
     loss = make_lac_loss(
         actor,
         critic,
@@ -193,9 +190,8 @@ def lac_from_config(
         cost=cfg["lyapunov"]["cost"],
         hidden=cfg["network"]["hidden"],
         layer_norm=critic_layer_norm(cfg),
-        backup="actor" if on_prior else selection_backup(cfg),
         rule=rule,
-        residual_coef=float(residual.get("coef", 1.0)) if on_prior else None,
+        **backup_and_residual(cfg),
     )
     target_updater = SoftUpdate(loss, tau=optim["tau"])
     return Learner(

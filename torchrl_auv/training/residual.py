@@ -49,6 +49,7 @@ __all__ = [
     "NEXT_PRIOR_ACTION",
     "PRIOR_ACTION",
     "RESIDUAL_KEYS",
+    "backup_and_residual",
     "check_residual",
     "make_residual_actor",
     "next_state_keys",
@@ -207,6 +208,21 @@ def check_residual(residual: Mapping, alone_replan_every: int | None = 1) -> Non
 def residual_bound(cfg: Mapping) -> float:
     """``cfg.residual.bound`` (absent: 0, no residual actor)."""
     return float((cfg.get("residual") or {}).get("bound", 0.0))
+
+
+def backup_and_residual(cfg: Mapping) -> dict:
+    """The loss arguments of a recipe config's critic target and actor: with a residual actor
+    (``cfg.residual.bound > 0``) ``backup="actor"`` (the actor acts) and ``residual_coef`` =
+    ``cfg.residual.coef``; else ``cfg.selection.backup`` and no residual.
+
+    >>> backup_and_residual({"residual": {"bound": 0.2, "coef": 3}})
+    {'backup': 'actor', 'residual_coef': 3.0}
+    >>> backup_and_residual({"selection": {"backup": "candidates"}})
+    {'backup': 'candidates', 'residual_coef': None}
+    """
+    if residual_bound(cfg) > 0:
+        return {"backup": "actor", "residual_coef": float(cfg["residual"].get("coef", 1.0))}
+    return {"backup": selection_backup(cfg), "residual_coef": None}
 
 
 def next_state_keys(cfg: Mapping) -> tuple:

@@ -21,7 +21,6 @@ from torchrl.objectives import SACLoss, SoftUpdate
 
 from torchrl_auv.envs import DataCollectionEnv
 from torchrl_auv.objectives import CandidateBackupSACLoss, ResidualSACLoss, SelectionRule
-from torchrl_auv.training.candidates import selection_backup
 from torchrl_auv.training.keys import ACTION, AGENTS, Q_VALUE
 from torchrl_auv.training.learner import Learner
 from torchrl_auv.training.networks import (
@@ -29,7 +28,7 @@ from torchrl_auv.training.networks import (
     make_q_critic,
     observation_action_dims,
 )
-from torchrl_auv.training.residual import residual_bound
+from torchrl_auv.training.residual import backup_and_residual
 
 __all__ = ["SAC_LOGGED_KEYS", "make_sac_loss", "sac_from_config", "sac_optimisers"]
 
@@ -116,8 +115,6 @@ def sac_from_config(
     ``False``) compiles the update (:class:`~torchrl_auv.training.Learner`)."""
     optim, network = cfg["optim"], cfg["network"]
     critic = make_q_critic(env, network["hidden"], layer_norm=critic_layer_norm(cfg))
-    residual = cfg.get("residual") or {}
-    on_prior = residual_bound(cfg) > 0
     loss, target_updater = make_sac_loss(
         actor,
         critic.to(cfg["device"]),
@@ -127,9 +124,8 @@ def sac_from_config(
         tau=optim["tau"],
         loss_function=optim["loss_function"],
         num_qvalue_nets=int(network.get("critics", 2)),
-        backup="actor" if on_prior else selection_backup(cfg),
         rule=rule,
-        residual_coef=float(residual.get("coef", 1.0)) if on_prior else None,
+        **backup_and_residual(cfg),
     )
     return Learner(
         loss,
