@@ -45,6 +45,10 @@ def test_registration_is_idempotent():
 def test_data_collection_id_passes_the_env_checker():
     env = gymnasium.make("torchrl_auv/DataCollection-v2", num_auvs=2, max_steps=4)
     check_env(env.unwrapped, skip_render_check=True)
+    rendering = gymnasium.make(
+        "torchrl_auv/DataCollection-v2", render_mode="rgb_array", max_steps=4
+    )
+    check_env(rendering.unwrapped)  # with its render check
     obs, _ = env.reset(seed=0)
     assert obs.shape == (76,) and env.action_space.shape == (6,)
     done, info = False, {}

@@ -26,6 +26,13 @@ def test_rollout_expert_prints_metrics_and_plots(tmp_path):
     assert (tmp_path / "e.png").stat().st_size > 10_000
 
 
+def test_record_video_writes_the_episode_and_its_last_frame(tmp_path):
+    out = _run("examples/record_video.py", "--steps", "6", "--out", str(tmp_path))
+    assert re.search(r"^SDR \d+\.\d\d Mbit, SSN \d+$", out, re.M)
+    assert (tmp_path / "rl-video-episode-0.mp4").stat().st_size > 1000
+    assert (tmp_path / "last_frame.png").stat().st_size > 1000
+
+
 def test_lac_in_a_torchrl_loop_reports_the_dual_variables():
     out = _run("examples/lac_in_a_torchrl_loop.py", "--frames", "200")
     lines = re.findall(r"^batch (\d+): cost ([\d.]+), lambda ([\d.]+), beta ([\d.]+)", out, re.M)

@@ -25,6 +25,7 @@ import torch
 from torchrl.envs import EnvBase
 
 from torchrl_auv.envs.data_collection import DataCollectionEnv
+from torchrl_auv.envs.render import top_view
 from torchrl_auv.envs.tracking import AUVTrackingEnv
 
 __all__ = ["DataCollectionGymEnv", "TrackingGymEnv", "register_gymnasium_ids"]
@@ -39,7 +40,8 @@ class _GymView(gymnasium.Env):
     Seeding follows gymnasium's convention: ``reset(seed=s)`` (or a ``seed`` keyword at
     construction) fixes the episodes; an env never seeded draws its seed from the OS's entropy
     at its first reset, so two unseeded envs (e.g. a vector env's workers) differ, and later
-    unseeded resets continue its stream. ``render_mode``: ``None`` (no rendering) only.
+    unseeded resets continue its stream. ``render_mode``: ``None`` (no rendering) or one of the
+    class's ``metadata["render_modes"]``.
     """
 
     metadata = {"render_modes": []}  # noqa: RUF012 - gymnasium's convention
@@ -67,7 +69,11 @@ class _GymView(gymnasium.Env):
             self._env.set_seed(int(self.np_random.integers(2**31 - 1)))
         self._seeded = True
         self._td = self._env.reset()
+        self._on_step()
         return self._td["observation"].numpy().copy(), self._info(self._td, cost=0.0)
+
+    def _on_step(self) -> None:
+        """Called after reset and every step with the new ``self._td`` (for rendering)."""
 
     @staticmethod
     def _info(td, cost: float) -> dict[str, Any]:
@@ -82,6 +88,7 @@ class _GymView(gymnasium.Env):
         self._td["action"] = torch.as_tensor(np.asarray(action, dtype=np.float32))
         out = self._env.step(self._td)["next"]
         self._td = out
+        self._on_step()
         info = self._info(out, cost=float(out["cost"]))
         terminated, truncated = bool(out["terminated"]), bool(out["truncated"])
         return (
@@ -126,12 +133,19 @@ class TrackingGymEnv(_GymView):
 class DataCollectionGymEnv(_GymView):
     """:class:`~torchrl_auv.envs.DataCollectionEnv` (flat layout) behind the gymnasium API.
 
+    ``render_mode="rgb_array"``: ``render()`` returns the top view of the scene
+    (:func:`torchrl_auv.envs.render.top_view`, 400 x 400 pixels) with the AUVs' tracks since the
+    reset, so gymnasium's ``RecordVideo`` records episodes (``metadata["render_fps"]`` 10
+    decisions per second of video).
+
     >>> import gymnasium
     >>> env = gymnasium.make("torchrl_auv/DataCollection-v2", num_auvs=2)
     >>> obs, info = env.reset(seed=0)
     >>> obs.shape, env.action_space.shape
     ((76,), (6,))
     """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         if "flatten_agents" in kwargs:
@@ -140,6 +154,23 @@ class DataCollectionGymEnv(_GymView):
         seeded = kwargs.get("seed") is not None
         env = DataCollectionEnv(batch_size=[], flatten_agents=True, **kwargs)
         super().__init__(env, seeded=seeded, render_mode=render_mode)
+        self._tracks: list[np.ndarray] = []
+
+    def _on_step(self) -> None:
+        if self.render_mode is None:
+            return
+        if int(self._td["sim", "task", "decision"]) == 0:
+            self._tracks = []
+        self._tracks.append(self._td["sim", "truth", "eta"][:, :2].double().numpy())
+
+    def render(self) -> np.ndarray | None:
+        """The top view (``uint8 [400, 400, 3]``) in ``rgb_array`` mode, else ``None``."""
+        if self.render_mode is None:
+            return None
+        if self._td is None:
+            raise RuntimeError("call reset() before render()")
+        tracks = np.stack(self._tracks)
+        return top_view(self._td["sim"], self._env.config.area_m, tracks=tracks)
 
 
 def register_gymnasium_ids() -> None:
