@@ -38,12 +38,10 @@ def main(cfg: DictConfig) -> None:
 
     # 2. run it (checkpoint: the frame count; the proposer itself is cached by the first stage)
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
-    remaining = run.restore({})
+    remaining = run.restore()
     collector = training.collector_from_config(cfg, policy, env=env, total_frames=max(remaining, 1))
-    run.track(eval_policy=policy)
-    for data in collector if remaining > 0 else ():
-        run.progress.frames += data.numel()
-        run.step(data, {})
+    for _ in run.collect(collector, eval_policy=policy):  # counted, curve, checkpoints
+        pass
     facts = {**stage.facts, **run.finish(collector)}
 
     # 3. evaluation on held-out seeds

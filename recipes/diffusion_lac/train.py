@@ -74,31 +74,26 @@ def main(cfg: DictConfig) -> None:
         )
     advising = training.AdvisorLoop(cfg, run.dir, run.logger, learner.loss)
     buffer = training.buffer_from_config(cfg, run.dir)
-    remaining = run.restore(
-        {**learner.checkpoint_modules(), **advising.checkpoint_modules()}, buffer
-    )  # resume: the newest
+    remaining = run.restore(learner, buffer, modules=advising.checkpoint_modules())  # resume
     next_keys = training.next_state_keys(cfg)  # what the critics' backup reads of s'
     if not bound:
         training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
     # 3. collect with the policy, train from the buffer, consult the advisor
     collector = training.collector_from_config(cfg, policy, env=env, total_frames=max(remaining, 1))
-    run.track(eval_policy=policy)
-    for data in collector if remaining > 0 else ():
+    for data in run.collect(collector, eval_policy=policy):  # counts the batch's frames
         if bound:  # the prior's action at the next state, for the actor's next action
             training.with_next_prior(data, policy[0])
         elif next_keys:  # the next state's candidates, for the critics' backup
             training.with_next_candidates(data, proposer)
         buffer.extend(training.select_for_replay(data, next_keys))
-        run.progress.frames += data.numel()
         for _ in range(cfg.optim.updates_per_batch):
             out = learner.step(buffer.sample().to(cfg.device))
-            run.progress.updates += 1
         metrics = {**learner.metrics(out), **advising.step(run.progress.frames, data, out)}
         if not bound:
             training.start_deviating(rule, run.progress.frames, cfg)
         collector.update_policy_weights_()  # workers: new weights and Lyapunov form
-        run.step(data, metrics, learner.loss.spec)
+        run.log(metrics, learner.loss.spec)
     facts = {**stage.facts, **run.finish(collector)}
 
     # 4. evaluation on held-out seeds: the framework, each rank alone (OA, CA1, ...), the actor

@@ -27,7 +27,7 @@ def main(cfg: DictConfig) -> None:
     actor = training.make_actor(env, cfg.network.hidden).to(cfg.device)
     learner = training.sac_from_config(cfg, env, actor)
     buffer = training.buffer_from_config(cfg, run.dir)
-    remaining = run.restore(learner.checkpoint_modules(), buffer)  # resume: the newest
+    remaining = run.restore(learner, buffer)  # resume: the newest; the learner counts updates
     # the update's batches: the online buffer, or half of each from the scripted expert's
     # demonstrations (demonstrations.frames > 0: RLPD's symmetric sampling)
     sample, demonstration_frames = training.sampler_from_config(cfg, buffer)
@@ -37,21 +37,16 @@ def main(cfg: DictConfig) -> None:
     collector = training.collector_from_config(
         cfg, actor, env=env, total_frames=max(remaining, 1), init_random_frames=random_frames
     )
-    run.track(eval_policy=actor)
     stored_bytes = None
-    for data in collector if remaining > 0 else ():
+    for data in run.collect(collector, eval_policy=actor):  # counts the batch's frames
         stored = training.select_for_replay(data)
         stored_bytes = stored_bytes or training.bytes_per_frame(stored[0])
         buffer.extend(stored)
-        run.progress.frames += data.numel()
-        metrics = {}
         if run.progress.frames >= cfg.collector.init_random_frames:
             for _ in range(cfg.optim.updates_per_batch):
                 out = learner.step(sample().to(cfg.device))
-                run.progress.updates += 1
-            metrics = learner.metrics(out)
+            run.log(learner.metrics(out))
             collector.update_policy_weights_()  # worker processes / Ray act with the new weights
-        run.step(data, metrics)
     facts = run.finish(collector)
 
     # evaluation on held-out seeds: the trained actor next to the expert and random actions

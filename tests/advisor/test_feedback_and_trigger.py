@@ -212,7 +212,7 @@ def test_in_a_training_loop_the_decision_changes_the_loss_spec(tmp_path):
 def test_consultation_and_failure_counts_survive_a_checkpoint(tmp_path):
     """A resumed run's summary counts every session's consultations and failures, not only the
     last session's (the counts ride in the trigger's state_dict through a real checkpoint)."""
-    from torchrl_auv.training import make_checkpoint, resume_latest
+    from torchrl_auv.training import Progress, make_checkpoint, resume_latest
 
     class Broken:
         def propose(self, task, feedback, current) -> AdvisorDecision:
@@ -221,14 +221,14 @@ def test_consultation_and_failure_counts_survive_a_checkpoint(tmp_path):
     def trigger() -> AdvisorTrigger:
         return AdvisorTrigger(Broken(), "x", log_path=tmp_path / "a.jsonl", cooldown=0)
 
-    first, progress = trigger(), {"frames": 0}
+    first, progress = trigger(), Progress()
     for frame in (0, 10):
         first.step(frame, TrainingFeedback(collisions=1.0), _Loss())
     ckpt, rotation = make_checkpoint(tmp_path, modules={"advisor": first}, progress=progress)
-    progress["frames"] = 10
+    progress.frames = 10
     rotation.save(ckpt, step=10)
 
-    second, progress = trigger(), {"frames": 0}
+    second, progress = trigger(), Progress()
     ckpt, _ = make_checkpoint(tmp_path, modules={"advisor": second}, progress=progress)
     assert resume_latest(tmp_path, ckpt, progress)[0] == 10
     second.step(20, TrainingFeedback(collisions=1.0), _Loss())

@@ -11,6 +11,7 @@ import torch
 from torchrl.checkpoint import CheckpointError
 
 from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
+from torchrl_auv.training.progress import Progress
 from torchrl_auv.training.verified_rotation import CHECKSUMS, checkpoint_problems
 
 
@@ -18,14 +19,14 @@ def _two_checkpoints(run_dir):
     """Checkpoints at frames 100 (weights 1) and 200 (weights 2) of a net and its optimiser."""
     net = torch.nn.Linear(8, 16)
     optimiser = torch.optim.Adam(net.parameters())
-    progress = {"frames": 0}
+    progress = Progress()
     checkpoint, rotation = make_checkpoint(
         run_dir, modules={"net": net, "opt": optimiser}, progress=progress, keep_last=2
     )
     for frames, value in ((100, 1.0), (200, 2.0)):
         with torch.no_grad():
             net.weight.fill_(value)
-        progress["frames"] = frames
+        progress.frames = frames
         rotation.save(checkpoint, step=frames)
     return net, checkpoint, rotation, progress
 
@@ -68,7 +69,7 @@ def test_a_damaged_newest_checkpoint_is_named_and_the_previous_one_loaded(tmp_pa
         net.weight.zero_()
     with pytest.warns(UserWarning, match=str(newest)):
         frames, _ = resume_latest(tmp_path, checkpoint, progress)
-    assert frames == 100 and progress["frames"] == 100
+    assert frames == 100 and progress.frames == 100
     assert bool((net.weight == 1.0).all())  # the older checkpoint's weights, not zeros
 
 

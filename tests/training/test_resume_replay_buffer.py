@@ -10,7 +10,8 @@ from omegaconf import OmegaConf
 from tensordict import TensorDict
 
 from torchrl_auv.training.replay import make_replay_buffer
-from torchrl_auv.training.run import Progress, prepare_resume
+from torchrl_auv.training import Progress
+from torchrl_auv.training.run import _prepare_resume
 
 
 def _cfg(run_dir, *, keep_buffer: bool, resume: bool):
@@ -28,7 +29,7 @@ def _save_a_run(run_dir, keep_buffer: bool) -> TensorDict:
     buffer = make_replay_buffer(100, batch_size=4)
     buffer.extend(frames)
     progress = Progress()
-    checkpoint, rotation, _ = prepare_resume(
+    checkpoint, rotation, _ = _prepare_resume(
         _cfg(run_dir, keep_buffer=keep_buffer, resume=False),
         run_dir,
         {"net": torch.nn.Linear(3, 1)},
@@ -43,7 +44,7 @@ def _save_a_run(run_dir, keep_buffer: bool) -> TensorDict:
 def _resume(run_dir, keep_buffer: bool):
     buffer = make_replay_buffer(100, batch_size=4)
     progress = Progress()
-    *_, remaining = prepare_resume(
+    *_, remaining = _prepare_resume(
         _cfg(run_dir, keep_buffer=keep_buffer, resume=True),
         run_dir,
         {"net": torch.nn.Linear(3, 1)},

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 from omegaconf import OmegaConf
+from tensordict import TensorDict
 
 from torchrl_auv import training
 
@@ -27,7 +28,7 @@ def _cfg(run_dir, resume=None):
 def test_a_resumed_run_continues_from_its_counters_and_weights(tmp_path):
     net = torch.nn.Linear(2, 1)
     run = training.Run(_cfg(tmp_path / "run"))
-    assert run.restore({"net": net}) == 100
+    assert run.restore(modules={"net": net}) == 100
     run.progress.frames, run.progress.updates = 40, 7
     run.rotation.save(run.checkpoint, step=40)
     weights = net.weight.detach().clone()
@@ -35,17 +36,72 @@ def test_a_resumed_run_continues_from_its_counters_and_weights(tmp_path):
     fresh_net = torch.nn.Linear(2, 1)
     resumed = training.Run(_cfg(tmp_path / "other", resume=str(tmp_path / "run")))
     assert resumed.dir == tmp_path / "run"
-    assert resumed.restore({"net": fresh_net}) == 60  # frames still to go
+    assert resumed.restore(modules={"net": fresh_net}) == 60  # frames still to go
     assert resumed.progress == training.Progress(frames=40, updates=7)
     torch.testing.assert_close(fresh_net.weight, weights)
 
 
-def test_run_steps_need_restore_and_track_first(tmp_path):
+def test_run_steps_need_restore_and_collect_first(tmp_path):
     run = training.Run(_cfg(tmp_path))
     with pytest.raises(RuntimeError, match=r"Run.restore"):
-        run.track()
-    with pytest.raises(RuntimeError, match=r"Run.track"):
+        next(run.collect([]))
+    with pytest.raises(RuntimeError, match=r"Run.collect"):
         run.finish(None)
+    with pytest.raises(TypeError, match=r"the first argument is the learner"):
+        run.restore({"net": torch.nn.Linear(2, 1)})  # the old call: modules first
+
+
+class _Learner:
+    """A learner's checkpoint contract and its counter, nothing else."""
+
+    def __init__(self):
+        self.net = torch.nn.Linear(2, 1)
+        self.progress = training.Progress()
+
+    def checkpoint_modules(self):
+        return {"net": self.net}
+
+    def step(self):
+        self.progress.updates += 1
+
+
+class _Collector:
+    def __init__(self, batches, frames):
+        self.batches, self.frames, self.shut = batches, frames, False
+
+    def __iter__(self):
+        for _ in range(self.batches):  # what the run reads of a batch: the cost, the ends
+            yield TensorDict(
+                {
+                    ("next", "agents", "cost"): torch.ones(self.frames, 2, 1),
+                    ("next", "done"): torch.zeros(self.frames, 1, dtype=torch.bool),
+                },
+                [self.frames],
+            )
+
+    def shutdown(self):
+        self.shut = True
+
+
+def test_the_run_counts_the_frames_it_collects_and_the_updates_its_learner_makes(tmp_path):
+    """Run.collect counts a batch's frames before the loop's body sees it; the learner given to
+    restore counts its updates into the run's counters, which the checkpoint saves."""
+    cfg = _cfg(tmp_path / "run")
+    run, learner = training.Run(cfg), _Learner()
+    assert run.restore(learner) == 100 and learner.progress is run.progress
+    seen = []
+    for data in run.collect(_Collector(batches=4, frames=25)):
+        seen.append(run.progress.frames)
+        learner.step()
+        learner.step()
+        run.log({"train/x": 1.0})
+    facts = run.finish(_Collector(0, 1))
+    assert seen == [25, 50, 75, 100] and run.progress == training.Progress(100, 8)
+    assert facts["gradient updates"] == 8
+    resumed = training.Run(_cfg(tmp_path / "other", resume=str(tmp_path / "run")))
+    fresh = _Learner()
+    assert resumed.restore(fresh) == 0 and fresh.progress == training.Progress(100, 8)
+    assert list(resumed.collect(_Collector(batches=1, frames=25))) == []  # nothing left to do
 
 
 @pytest.mark.parametrize(("history", "ok"), [(None, 0), (0, 0), (3, 3), (-1, None), (2.5, None)])

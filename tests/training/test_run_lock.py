@@ -13,7 +13,7 @@ import time
 import pytest
 from omegaconf import OmegaConf
 
-from torchrl_auv.training import Run, RunFolderInUse, start_run
+from torchrl_auv.training import Run, RunFolderInUse
 from torchrl_auv.training.run_lock import LOCK_FILE, acquire_run_folder, release_run_folder
 
 
@@ -82,7 +82,7 @@ def test_a_refused_start_writes_nothing_into_the_held_folder(tmp_path):
         line = (run_dir / LOCK_FILE).read_text()
         for cfg in (_cfg(run_dir), _cfg(tmp_path / "other", resume=str(run_dir))):
             with pytest.raises(RunFolderInUse, match=rf"pid {holder.pid} on .* since "):
-                start_run(cfg)
+                Run(cfg)
         assert {path: path.stat().st_mtime_ns for path in run_dir.rglob("*")} == before
         assert (run_dir / LOCK_FILE).read_text() == line
     finally:
@@ -110,11 +110,11 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_warning(tmp_path, capl
     run_dir = tmp_path / "run"
     holder = _holder_process(run_dir)
     with pytest.raises(RunFolderInUse, match=f"pid {holder.pid} "):
-        start_run(_cfg(run_dir))
+        Run(_cfg(run_dir))
     os.kill(holder.pid, signal.SIGKILL)
     holder.join(timeout=60)
     with caplog.at_level(logging.WARNING, logger="torchrl_auv.training.run_lock"):
-        assert start_run(_cfg(run_dir)) == run_dir
+        assert Run(_cfg(run_dir)).dir == run_dir
     assert f"pid {holder.pid} " in caplog.text and "no longer running" in caplog.text
     assert f"pid {os.getpid()} " in (run_dir / LOCK_FILE).read_text()
 
@@ -122,7 +122,7 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_warning(tmp_path, capl
 def test_a_start_refused_by_its_own_checks_leaves_no_lock_file(tmp_path):
     run_dir = tmp_path / "run"
     with pytest.raises(ValueError, match="holds no checkpoints"):
-        start_run(_cfg(run_dir, resume=str(run_dir)))
+        Run(_cfg(run_dir, resume=str(run_dir)))
     assert not (run_dir / LOCK_FILE).exists()
     acquire_run_folder(run_dir)  # and the lock was let go
     release_run_folder(run_dir)

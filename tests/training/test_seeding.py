@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from torchrl_auv.training import configure_threads, seed_everything, start_run
+from torchrl_auv.training import Run, configure_threads, seed_everything
 
 
 def _draws():
@@ -37,13 +37,13 @@ def test_configure_threads_names_a_bad_count(threads):
         configure_threads(threads)
 
 
-def test_start_run_seeds_every_rng(tmp_path):
+def test_a_run_seeds_every_rng(tmp_path):
     from hydra import compose, initialize_config_dir
 
     folder = Path(__file__).resolve().parents[2] / "recipes" / "sac"
     with initialize_config_dir(config_dir=str(folder), version_base=None):
-        cfg = compose("quick", [f"run_dir={tmp_path / 'run'}", "seed=5"])
-    start_run(cfg)
+        cfg = compose("quick", [f"run_dir={tmp_path / 'run'}", "seed=5", "logger.backend="])
+    Run(cfg)
     after_start = _draws()
     seed_everything(5)
     assert _draws() == after_start
@@ -58,8 +58,8 @@ def test_a_run_stopped_before_its_first_checkpoint_is_named_and_resumable(tmp_pa
     (run / "checkpoints" / ".stage-checkpoint-000000000200").mkdir(parents=True)
     folder = Path(__file__).resolve().parents[2] / "recipes" / "sac"
     with initialize_config_dir(config_dir=str(folder), version_base=None):
-        fresh = compose("quick", [f"run_dir={run}"])
-        resumed = compose("quick", [f"resume={run}"])
+        fresh = compose("quick", [f"run_dir={run}", "logger.backend="])
+        resumed = compose("quick", [f"resume={run}", "logger.backend="])
     with pytest.raises(ValueError, match=r"stopped before its first checkpoint.*resume="):
-        start_run(fresh)
-    assert start_run(resumed) == run
+        Run(fresh)
+    assert Run(resumed).dir == run

@@ -85,17 +85,17 @@ def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
 
     loss = Loss()
     trigger = AdvisorTrigger(RuleBasedAdvisor(), "task", log_path=tmp_path / "a.jsonl")
-    progress = {"frames": 0}
+    progress = training.Progress()
     modules = {"spec": training.SpecState(loss), "advisor": trigger}
     ckpt, rotation = training.make_checkpoint(tmp_path, modules=modules, progress=progress)
     loss.set_lyapunov_spec(LyapunovSpec(form="log", alpha=0.05))
     trigger.load_state_dict({"last_frame": 300})
-    progress["frames"] = 400
+    progress.frames = 400
     rotation.save(ckpt, step=400)
 
     fresh_loss = Loss()
     fresh = AdvisorTrigger(RuleBasedAdvisor(), "task", log_path=tmp_path / "b.jsonl")
-    fresh_progress = {"frames": 0}
+    fresh_progress = training.Progress()
     ckpt2, _ = training.make_checkpoint(
         tmp_path,
         modules={"spec": training.SpecState(fresh_loss), "advisor": fresh},
@@ -122,7 +122,7 @@ def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
     loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))  # an advisor's step
     assert (selector.spec.form, selector.spec.alpha) == ("squared", 0.25)
     assert selector.spec_code[0] != 0  # the buffer the workers receive with the weights
-    progress = {"frames": 0}
+    progress = training.Progress()
     ckpt, rotation = training.make_checkpoint(
         tmp_path, modules={"spec": training.SpecState(loss)}, progress=progress
     )

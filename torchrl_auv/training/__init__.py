@@ -17,7 +17,9 @@ module                      builds
 ``replay``                  the replay buffer and what it stores of a frame
 ``demonstration_replay``    SAC's expert demonstrations, half of each batch (RLPD)
 ``collectors``              TorchRL collectors: local, worker processes, Ray
-``run``                     :class:`Run`: folder, logger, checkpoint, counters, final evaluation
+``run``                     :class:`Run`: folder, logger, checkpoint, the loop's batches, final
+                            evaluation
+``progress``                :class:`Progress`, the run's counters (frames, updates)
 ``tracking``                the loop's bookkeeping: metrics, progress bar, learning curve
 ``evaluation``              held-out evaluation of policies (the task's metrics)
 ==========================  ========================================================================
@@ -124,6 +126,7 @@ from torchrl_auv.training.networks import (
     make_q_critic,
     observation_action_dims,
 )
+from torchrl_auv.training.progress import Progress
 from torchrl_auv.training.replay import (
     REPLAY_KEYS,
     buffer_from_config,
@@ -143,7 +146,7 @@ from torchrl_auv.training.residual import (
     residual_policy,
     with_next_prior,
 )
-from torchrl_auv.training.run import Progress, Run, finish_run, prepare_resume, start_run
+from torchrl_auv.training.run import Run
 from torchrl_auv.training.run_lock import RunFolderInUse
 from torchrl_auv.training.sac import (
     SAC_LOGGED_KEYS,
@@ -238,7 +241,6 @@ __all__ = [
     "exit_policy",
     "expert_policy",
     "feedback_batch",
-    "finish_run",
     "first_stage_frames",
     "first_stage_from_config",
     "first_stage_values",
@@ -266,7 +268,6 @@ __all__ = [
     "next_state_values",
     "observation_action_dims",
     "peak_rss_mb",
-    "prepare_resume",
     "progress_postfix",
     "proposer_alone",
     "proposer_from_config",
@@ -283,7 +284,6 @@ __all__ = [
     "selection_backup",
     "selection_rule_from_config",
     "start_deviating",
-    "start_run",
     "symmetric_sampler",
     "truncate_curve",
     "values_key",

@@ -11,12 +11,13 @@ intact one.
 
 Examples:
     >>> import tempfile, torch
-    >>> net, progress = torch.nn.Linear(2, 1), {"frames": 0}
+    >>> from torchrl_auv.training.progress import Progress
+    >>> net, progress = torch.nn.Linear(2, 1), Progress()
     >>> with tempfile.TemporaryDirectory() as run_dir:
     ...     ckpt, rotation = make_checkpoint(run_dir, modules={"net": net}, progress=progress)
-    ...     progress["frames"] = 128
+    ...     progress.frames = 128
     ...     _ = rotation.save(ckpt, step=128)
-    ...     progress["frames"] = 0
+    ...     progress.frames = 0
     ...     resume_latest(run_dir, ckpt, progress)[0]
     128
 """
@@ -30,6 +31,7 @@ from pathlib import Path
 
 from torchrl.checkpoint import Checkpoint, CheckpointError, GlobalRNGState
 
+from torchrl_auv.training.progress import Progress
 from torchrl_auv.training.verified_rotation import (
     CHECKSUMS,
     VerifiedRotation,
@@ -40,35 +42,32 @@ __all__ = ["ProgressState", "SpecState", "make_checkpoint", "resume_latest"]
 
 
 class ProgressState:
-    """A run's counters (frames, updates, ...) as a checkpoint component: a dict or a dataclass
-    (:class:`~torchrl_auv.training.Progress`) of numbers, updated in place on load."""
+    """A run's counters (:class:`~torchrl_auv.training.Progress`) as a checkpoint component,
+    updated in place on load."""
 
-    def __init__(self, values) -> None:
-        self.values = values
+    def __init__(self, progress: Progress) -> None:
+        if not isinstance(progress, Progress):
+            raise TypeError(f"progress must be a Progress, got {type(progress).__name__}")
+        self.progress = progress
 
     def state_dict(self) -> dict:
-        if dataclasses.is_dataclass(self.values):
-            return dataclasses.asdict(self.values)
-        return dict(self.values)
+        return dataclasses.asdict(self.progress)
 
     def load_state_dict(self, state: Mapping) -> None:
-        if dataclasses.is_dataclass(self.values):
-            for key, value in state.items():
-                setattr(self.values, key, value)
-        else:
-            self.values.update(state)
+        for key, value in state.items():
+            setattr(self.progress, key, value)
 
 
 def make_checkpoint(
     run_dir: str | Path,
     *,
     modules: Mapping[str, object],
-    progress,
+    progress: Progress,
     keep_last: int = 2,
 ) -> tuple[Checkpoint, VerifiedRotation]:
     """A checkpoint of ``modules`` (anything with ``state_dict``: networks, losses with their
-    targets and dual variables, optimisers, replay buffers), the ``progress`` counters (a dict
-    of numbers, updated in place on load) and the global RNG states (python, numpy, torch).
+    targets and dual variables, optimisers, replay buffers), the ``progress`` counters (updated
+    in place on load) and the global RNG states (python, numpy, torch).
 
     Returns:
         ``(checkpoint, rotation)``; save with ``rotation.save(checkpoint, step=frames)``.
@@ -77,7 +76,9 @@ def make_checkpoint(
     return checkpoint, VerifiedRotation(Path(run_dir) / "checkpoints", keep_last=keep_last)
 
 
-def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress) -> tuple[int, dict]:
+def resume_latest(
+    run_dir: str | Path, checkpoint: Checkpoint, progress: Progress
+) -> tuple[int, dict]:
     """Load the newest intact checkpoint under ``run_dir/checkpoints`` into ``checkpoint``'s
     live components (a newer damaged one is passed over with a warning naming its path and
     problems). Returns the frames it had reached and its plain (JSON) values, e.g. the stored
@@ -112,8 +113,7 @@ def resume_latest(run_dir: str | Path, checkpoint: Checkpoint, progress) -> tupl
         result = checkpoint.load(intact)
     except Exception as error:  # a legacy checkpoint without checksums may still be damaged
         raise CheckpointError(f"checkpoint {intact} could not be loaded: {error}") from error
-    frames = progress.frames if dataclasses.is_dataclass(progress) else progress.get("frames", 0)
-    return int(frames), dict(result.values)
+    return int(progress.frames), dict(result.values)
 
 
 class SpecState:

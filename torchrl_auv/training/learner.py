@@ -18,8 +18,8 @@ Examples:
     >>> learner = Learner(loss, NoTargets(), {"optim": torch.optim.SGD(loss.parameters(), 0.1)},
     ...                   logged_keys=("loss_y",))
     >>> out = learner.step(TensorDict({"x": torch.ones(4, 2)}, [4]))
-    >>> list(learner.metrics(out))
-    ['train/loss_y']
+    >>> list(learner.metrics(out)), learner.progress.updates
+    (['train/loss_y'], 1)
 """
 
 from __future__ import annotations
@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 
 import torch
 from tensordict import TensorDictBase
+
+from torchrl_auv.training.progress import Progress
 
 __all__ = ["Learner", "gradient_step"]
 
@@ -87,17 +89,22 @@ class Learner:
     optimisers: dict[str, torch.optim.Optimizer]
     logged_keys: Sequence[str] = field(default_factory=tuple)
     compile: bool = False
+    progress: Progress = field(default_factory=Progress)
     _compiled: tuple | None = field(default=None, init=False, repr=False)
 
     def step(self, batch: TensorDictBase) -> TensorDictBase:
-        """One gradient step on ``batch`` (:func:`gradient_step`); the loss output, detached."""
+        """One gradient step on ``batch`` (:func:`gradient_step`), counted in
+        ``progress.updates``; the loss output, detached."""
         if not self.compile:
-            return gradient_step(self.loss, self.optimisers, self.target_updater, batch)
-        if self._compiled is None:
-            steps = [_compiled(opt.step) for opt in self.optimisers.values()]
-            self._compiled = (_compiled(self.loss), steps)
-        loss, steps = self._compiled
-        return gradient_step(loss, self.optimisers, self.target_updater, batch, steps)
+            out = gradient_step(self.loss, self.optimisers, self.target_updater, batch)
+        else:
+            if self._compiled is None:
+                steps = [_compiled(opt.step) for opt in self.optimisers.values()]
+                self._compiled = (_compiled(self.loss), steps)
+            loss, steps = self._compiled
+            out = gradient_step(loss, self.optimisers, self.target_updater, batch, steps)
+        self.progress.updates += 1
+        return out
 
     def metrics(self, out: TensorDictBase) -> dict[str, float]:
         """``train/<key>`` of each logged key ``out`` holds."""

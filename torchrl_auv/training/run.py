@@ -1,15 +1,14 @@
 """A training run as one object: its folder, logger, checkpoint, counters and evaluation.
 
 The training loop itself stays in each ``recipes/<name>/train.py`` (readable top to bottom, as
-TorchRL's sota-implementations); :class:`Run` keeps the scripts to what differs between them::
+TorchRL's sota-implementations); :class:`Run` keeps the scripts to what differs between them,
+and owns the counters (:class:`~torchrl_auv.training.Progress`)::
 
     run = training.Run(cfg)                    # checks the config, seeds, folder, logger
-    remaining = run.restore(learner.checkpoint_modules(), buffer)   # resume: the newest
-    run.track(eval_policy=policy)              # progress bar, learning curve, checkpoints
-    for data in collector:
-        run.progress.frames += data.numel()
-        ...                                    # updates: run.progress.updates += 1
-        run.step(data, metrics)
+    remaining = run.restore(learner, buffer)   # resume: the newest; the learner counts updates
+    for data in run.collect(collector, eval_policy=policy):   # counts the batch's frames
+        ...                                    # out = learner.step(batch)
+        run.log(learner.metrics(out))          # logged after the body, with the curve, checkpoints
     facts = run.finish(collector)
     run.evaluate(policies, title="SAC", facts=facts)   # eval.csv, summary.md
 
@@ -22,7 +21,7 @@ Examples:
     ...                                        "offline": True},
     ...                             "checkpoint": {"keep_last": 1}})
     ...     run = Run(cfg)
-    ...     run.restore({}), run.progress
+    ...     run.restore(), run.progress
     (None, Progress(frames=0, updates=0))
 """
 
@@ -30,8 +29,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
@@ -41,7 +39,9 @@ from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
 from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.env import held_out_env
 from torchrl_auv.training.evaluation import evaluate
+from torchrl_auv.training.learner import Learner
 from torchrl_auv.training.loggers import close_logger, log_metrics, logger_from_config
+from torchrl_auv.training.progress import Progress
 from torchrl_auv.training.run_folder import hydra_folder, remove_if_unused, write_hydra_files
 from torchrl_auv.training.run_lock import LOCK_FILE, acquire_run_folder, release_run_folder
 from torchrl_auv.training.seeding import configure_threads, seed_everything
@@ -49,25 +49,17 @@ from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summ
 from torchrl_auv.training.tracking import RunTracker
 from torchrl_auv.training.verified_rotation import VerifiedRotation
 
-__all__ = ["Progress", "Run", "finish_run", "prepare_resume", "start_run"]
+__all__ = ["Progress", "Run"]
 
 log = logging.getLogger(__name__)
 
 
-@dataclass
-class Progress:
-    """A run's counters, checkpointed with it: frames collected, gradient updates made."""
-
-    frames: int = 0
-    updates: int = 0
-
-
-def start_run(cfg: DictConfig) -> Path:
+def _start_run(cfg: DictConfig) -> Path:
     """Check the config's values (before any work), pin threads, seed every RNG, create and
     return the run folder (``resume`` when set, else ``run_dir``) with Hydra's ``.hydra/``
     files. The folder's lock is taken first (:mod:`~torchrl_auv.training.run_lock`): a folder
     another running process holds is refused naming it (:class:`RunFolderInUse`), and the lock
-    is held until :func:`finish_run`. A ``run_dir`` that already holds checkpoints is refused
+    is held until :func:`_finish_run`. A ``run_dir`` that already holds checkpoints is refused
     without ``resume`` (its checkpoints would be overwritten), and a ``resume`` folder without
     checkpoints is refused too; a refused start writes nothing and removes the empty folder
     Hydra made for it (:mod:`~torchrl_auv.training.run_folder`)."""
@@ -104,7 +96,7 @@ def start_run(cfg: DictConfig) -> Path:
     return run_dir
 
 
-def prepare_resume(
+def _prepare_resume(
     cfg: DictConfig, run_dir: Path, modules: dict, progress, buffer=None
 ) -> tuple[Checkpoint, VerifiedRotation, int]:
     """The run's checkpoint: ``modules``, the ``progress`` counters, the RNG states, the
@@ -148,7 +140,7 @@ def prepare_resume(
     return checkpoint, rotation, None if total is None else total - frames
 
 
-def finish_run(
+def _finish_run(
     cfg: DictConfig,
     run_dir: Path,
     logger,
@@ -193,40 +185,69 @@ def finish_run(
 
 class Run:
     """One training run (module docstring): built from a recipe config, it checks every value
-    before any work, seeds, creates the folder (:func:`start_run`) and the logger.
+    before any work, seeds, creates the folder (:func:`_start_run`) and the logger.
+
+    The calls, in the order a recipe makes them: :meth:`restore` (what a checkpoint holds; the
+    newest one loaded on resume), :meth:`collect` (the loop), :meth:`finish`, :meth:`evaluate`.
+    Each refuses to run before the one it needs.
 
     Attributes:
         cfg: the recipe config.
         dir: the run folder (``resume`` when set, else ``run_dir``).
         logger: the TorchRL logger of ``cfg.logger`` (``None`` when its backend is empty).
-        progress: the :class:`Progress` counters, restored by :meth:`restore`.
+        progress: the :class:`Progress` counters (frames: :meth:`collect`; updates: the
+            learner given to :meth:`restore`), restored from the checkpoint on resume.
     """
 
     def __init__(self, cfg: DictConfig) -> None:
         self.cfg = cfg
-        self.dir = start_run(cfg)
+        self.dir = _start_run(cfg)
         self.logger = logger_from_config(cfg, self.dir)
         self.progress = Progress()
         self.checkpoint: Checkpoint | None = None
         self.rotation: VerifiedRotation | None = None
         self.tracker: RunTracker | None = None
+        self.remaining: int | None = None
+        self._logged: tuple[dict[str, float], object] = ({}, None)
 
-    def restore(self, modules: Mapping[str, object], buffer=None) -> int | None:
-        """Register what a checkpoint saves (``modules``: losses, optimisers, anything with
-        ``state_dict``; the counters, the RNG states and the config always) and, with
-        ``cfg.resume``, load the newest checkpoint into them (:func:`prepare_resume`).
-        Returns the frames still to collect (``None`` without ``cfg.collector``)."""
-        self.checkpoint, self.rotation, remaining = prepare_resume(
-            self.cfg, self.dir, dict(modules), self.progress, buffer
+    def restore(
+        self,
+        learner: Learner | None = None,
+        buffer=None,
+        *,
+        modules: Mapping[str, object] | None = None,
+    ) -> int | None:
+        """Register what a checkpoint saves (the ``learner``'s losses and optimisers,
+        ``modules``: anything else with ``state_dict``; the counters, the RNG states and the
+        config always; the ``buffer`` with ``cfg.checkpoint.replay_buffer``) and, with
+        ``cfg.resume``, load the newest checkpoint into them (:func:`_prepare_resume`). The
+        learner then counts its updates into :attr:`progress`. Returns the frames still to
+        collect (``None`` without ``cfg.collector``)."""
+        if isinstance(learner, Mapping):
+            raise TypeError(
+                "Run.restore(learner, buffer, modules=...): the first argument is the learner "
+                "(or None); pass other checkpointed modules as modules={...}"
+            )
+        parts = dict(modules or {})
+        if learner is not None:
+            parts = {**learner.checkpoint_modules(), **parts}
+            learner.progress = self.progress
+        self.checkpoint, self.rotation, self.remaining = _prepare_resume(
+            self.cfg, self.dir, parts, self.progress, buffer
         )
-        return remaining
+        return self.remaining
 
-    def track(self, eval_policy=None) -> RunTracker:
-        """Start the bookkeeping of the loop (:class:`RunTracker`): the progress bar, the
-        learning curve of ``eval_policy`` (when ``cfg.eval.every_frames``), checkpoints every
-        ``cfg.checkpoint.every_frames``. Call after :meth:`restore`."""
+    def collect(self, collector, eval_policy=None) -> Iterator:
+        """The training loop's batches: ``for data in run.collect(collector): ...``.
+
+        Starts the loop's bookkeeping (:class:`RunTracker`: the progress bar, the learning
+        curve of ``eval_policy`` when ``cfg.eval.every_frames``, checkpoints every
+        ``cfg.checkpoint.every_frames``), then yields each batch after adding its frames to
+        ``progress.frames``; after the loop's body, logs what the body gave :meth:`log` and
+        evaluates and checkpoints when due. Yields nothing when :meth:`restore` found the run
+        complete."""
         if self.checkpoint is None:
-            raise RuntimeError("call Run.restore(modules) before Run.track()")
+            raise RuntimeError("call Run.restore(...) before Run.collect(collector)")
         self.tracker = RunTracker(
             self.cfg,
             self.dir,
@@ -236,16 +257,26 @@ class Run:
             self.rotation,
             eval_policy=eval_policy,
         )
-        return self.tracker
+        if self.remaining is not None and self.remaining <= 0:
+            return
+        for data in collector:
+            self.progress.frames += data.numel()
+            self._logged = ({}, None)
+            yield data
+            metrics, spec = self._logged
+            self.tracker.step(data, metrics, spec)
 
-    def step(self, data, metrics: dict[str, float], spec=None) -> None:
-        """After each collected batch (:meth:`RunTracker.step`)."""
-        self._tracker().step(data, metrics, spec)
+    def log(self, metrics: Mapping[str, float], spec=None) -> None:
+        """The metrics of the batch :meth:`collect` yielded last (logged after the loop's body;
+        ``spec``: the Lyapunov spec in force, shown on the progress bar)."""
+        self._logged = (dict(metrics), spec)
 
     def finish(self, collector) -> dict[str, object]:
         """After the loop: shut the collector down, save the last checkpoint; returns the
         session's facts (frames, wall time, frames/s, peak memory, gradient updates)."""
-        facts = self._tracker().finish(collector)
+        if self.tracker is None:
+            raise RuntimeError("call Run.collect(collector) before Run.finish(collector)")
+        facts = self.tracker.finish(collector)
         facts["gradient updates"] = self.progress.updates
         return facts
 
@@ -253,8 +284,8 @@ class Run:
         self, policies: Mapping[str, Callable], *, title: str, facts: Mapping[str, object]
     ) -> Path:
         """The final evaluation on held-out scenes, ``eval.csv``, ``summary.md``; closes the
-        logger (:func:`finish_run`). Returns the summary's path."""
-        return finish_run(
+        logger (:func:`_finish_run`). Returns the summary's path."""
+        return _finish_run(
             self.cfg,
             self.dir,
             self.logger,
@@ -263,8 +294,3 @@ class Run:
             facts=facts,
             step=self.progress.frames,
         )
-
-    def _tracker(self) -> RunTracker:
-        if self.tracker is None:
-            raise RuntimeError("call Run.track() before Run.step() / Run.finish()")
-        return self.tracker

@@ -6,7 +6,7 @@ and opens ``train.log`` there before the recipe's ``main`` runs: a start refused
 ``.hydra/`` files or leave a half-made folder behind. The recipes' presets therefore set
 ``hydra.output_subdir: null`` and a delayed log file, and point Hydra's folder at the run's own
 (``${run_folder:${resume},${run_dir}}``: the resumed run's folder when resuming);
-:func:`~torchrl_auv.training.start_run` then writes the ``.hydra/`` files with
+:class:`~torchrl_auv.training.Run` then writes the ``.hydra/`` files with
 :func:`write_hydra_files` once the checks pass, or, refusing, removes the folder Hydra made for
 it if it is empty (:func:`remove_if_unused`).
 

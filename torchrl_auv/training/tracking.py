@@ -117,8 +117,8 @@ class RunTracker:
     ``cfg.checkpoint.every_frames`` frames and one at the end.
 
     ``progress`` is the run's :class:`~torchrl_auv.training.Progress` (``frames``, ``updates``);
-    the recipe counts ``progress.frames`` itself (before its updates) and calls :meth:`step` once
-    per collected batch and :meth:`finish` after the loop. The evaluations use the run's envs
+    :meth:`~torchrl_auv.training.Run.collect` counts a batch's frames before the loop's body and
+    calls :meth:`step` after it; :meth:`finish` after the loop. The evaluations use the run's envs
     (``cfg.env``, its ``history`` included).
 
     **Learning curves from evaluation.** With ``eval_policy`` and ``cfg.eval.every_frames``
