@@ -9,8 +9,8 @@ import torch
 from omegaconf import OmegaConf
 from tensordict import TensorDict
 
-from torchrl_auv.training.replay import make_replay_buffer
 from torchrl_auv.training import Progress
+from torchrl_auv.training.replay import make_replay_buffer
 from torchrl_auv.training.run import _prepare_resume
 
 
