@@ -90,7 +90,7 @@ def test_the_run_counts_the_frames_it_collects_and_the_updates_its_learner_makes
     run, learner = training.Run(cfg), _Learner()
     assert run.restore(learner) == 100 and learner.progress is run.progress
     seen = []
-    for data in run.collect(_Collector(batches=4, frames=25)):
+    for _ in run.collect(_Collector(batches=4, frames=25)):
         seen.append(run.progress.frames)
         learner.step()
         learner.step()
