@@ -597,7 +597,7 @@ def test_an_action_outside_its_bounds_is_clipped_as_the_card_says():
 
 
 @pytest.mark.parametrize("flatten_agents", [False, True])
-def test_reward_key_is_the_reward_and_scaling_every_reward_key_keeps_cost_and_reward_one(
+def test_reward_key_is_the_reward_and_scaling_it_with_the_cost_keys_keeps_them_one(
     flatten_agents,
 ):
     from torchrl.envs import RewardScaling, TransformedEnv
@@ -609,12 +609,89 @@ def test_reward_key_is_the_reward_and_scaling_every_reward_key_keeps_cost_and_re
 
     env = make()
     assert env.reward_key == ("reward" if flatten_agents else ("agents", "reward"))
-    scaled = TransformedEnv(make(), RewardScaling(0.0, 0.1, in_keys=env.reward_keys))
+    assert env.reward_keys == [env.reward_key]
+    scaled_keys = [env.reward_key, *env.cost_keys]
+    scaled = TransformedEnv(make(), RewardScaling(0.0, 0.1, in_keys=scaled_keys))
     torch.manual_seed(0)  # the same random actions in both
     plain = env.rollout(3)
     torch.manual_seed(0)
     small = scaled.rollout(3)
-    for key in env.reward_keys:
+    for key in scaled_keys:
         torch.testing.assert_close(small["next", key], 0.1 * plain["next", key])
     cost = "cost" if flatten_agents else ("agents", "cost")
     torch.testing.assert_close(small["next", env.reward_key], -small["next", cost])
+
+
+def _wrapped(make):
+    """The env behind each TorchRL wrapper a user reaches for."""
+    from functools import partial
+
+    from torchrl.envs import ParallelEnv, RewardSum, SerialEnv
+
+    return {
+        "plain": make([2]),
+        "TransformedEnv": TransformedEnv(make([2]), RewardSum()),
+        "SerialEnv": SerialEnv(2, partial(make, [])),
+        "ParallelEnv": ParallelEnv(2, partial(make, []), mp_start_method="fork"),
+    }
+
+
+@pytest.mark.parametrize(
+    ("name", "reward", "costs"),
+    [
+        ("agents", ("agents", "reward"), [("agents", "cost"), ("agents", "stability_cost")]),
+        ("flat", "reward", ["cost", "stability_cost"]),
+        ("tracking", "reward", ["cost"]),
+    ],
+)
+def test_reward_key_through_every_wrapper_and_reward_sum_with_its_defaults(name, reward, costs):
+    """Issue [26/26]: ``env.reward_key`` raised on wrapped envs (three reward-like keys); the
+    cost keys are observation keys now, 0 at reset."""
+
+    def make(batch):
+        if name == "tracking":
+            return AUVTrackingEnv(batch_size=batch, seed=0, max_steps=4)
+        flat = name == "flat"
+        return DataCollectionEnv(
+            batch_size=batch, seed=0, num_sensors=5, max_steps=4, flatten_agents=flat
+        )
+
+    envs = _wrapped(make)
+    try:
+        for label, env in envs.items():
+            assert env.reward_key == reward, label
+            assert env.reward_keys == [reward], label
+        data = envs["TransformedEnv"].rollout(3)
+        episode = ("agents", "episode_reward") if name == "agents" else "episode_reward"
+        torch.testing.assert_close(
+            data["next", episode][:, -1], data["next", reward].sum(1)
+        )  # RewardSum with its default keys sums the one reward
+        for key in costs:
+            assert (data[key][:, 0] == 0).all() and (data["next", key] >= 0).all()
+            torch.testing.assert_close(data[key][:, 1:], data["next", key][:, :-1])
+    finally:
+        if not envs["ParallelEnv"].is_closed:
+            envs["ParallelEnv"].close()
+
+
+def test_multi_agent_attributes_as_torchrl_multi_agent_envs_have_them():
+    env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5, num_auvs=3)
+    assert env.n_agents == 3 and env.group_map == {"agents": ["auv_0", "auv_1", "auv_2"]}
+    assert TransformedEnv(env).n_agents == 3  # through the wrapper too
+    flat = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5, flatten_agents=True)
+    assert flat.group_map == {"agent": ["agent"]}
+
+
+def test_scene_level_done_flags_only_as_vmas_has_them():
+    """``per_agent_done=False``: the layout TorchRL's multi-agent scripts expect (their
+    DoneTransform expands scene-level flags over the agents)."""
+    env = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5, per_agent_done=False)
+    check_env_specs(env)
+    assert sorted(env.done_keys) == ["done", "terminated", "truncated"]
+    env.set_seed(0)
+    torch.manual_seed(0)  # the same random actions in both
+    data = env.rollout(3)
+    assert ("agents", "terminated") not in data["next"].keys(True)
+    torch.manual_seed(0)
+    with_flags = DataCollectionEnv(batch_size=[2], seed=0, num_sensors=5).rollout(3)
+    torch.testing.assert_close(data["next", "agents", "cost"], with_flags["next", "agents", "cost"])

@@ -152,8 +152,10 @@ class DataCollectionEnv(EnvBase):
     an episode is never cheaper than continuing it, for any discount up to 0.99).
     ``reward = -cost`` exactly (one learning signal for every framework). ``"cost_terms"``
     holds the weighted terms (``undelivered``, ``delivery_age``, ``energy``, ``collision``,
-    ``violation``). ``env.reward_key`` is the reward; rescale every reward key together
-    (``reward_key``). Flat: the sums over AUVs, ``[*B, 1]``.
+    ``violation``). ``env.reward_key`` is the reward, the one reward key (through any wrapper);
+    ``cost`` and ``stability_cost`` are observation keys (``env.cost_keys``: 0 at reset, then the
+    last decision's), to rescale together with the reward. Flat: the sums over AUVs,
+    ``[*B, 1]``.
 
     **Stability cost** ``("agents", "stability_cost")`` ``[*B, N, 1]`` (flat: the sum,
     ``"stability_cost"``): :func:`torchrl_auv.iout.stability_cost`, the normalised distance
@@ -200,6 +202,10 @@ class DataCollectionEnv(EnvBase):
     "es", "ves" or a ``SeaState``); ``controller`` ("s_surface", "pid", "smc");
     ``rate_model`` ("shannon", "paper"); ``seed``; ``max_steps`` (default
     ``episode_decisions`` = 1000); ``flatten_agents`` (single-agent layout);
+    ``per_agent_done`` (default ``True``; ``False``: the done flags at the scene level only,
+    VMAS's layout, which TorchRL's ``sota-implementations/multiagent/`` scripts expect: their
+    ``DoneTransform`` expands them over the agents, every AUV terminated when one ends the
+    episode);
     ``cost_weights``; ``termination_cost`` (default ``None``: derived as above); ``device``
     (where its outputs and the carried state live; the simulation runs on the CPU,
     :mod:`~torchrl_auv.envs.device`);
@@ -248,6 +254,7 @@ class DataCollectionEnv(EnvBase):
         seed: int | None = None,
         max_steps: int | None = None,
         flatten_agents: bool = False,
+        per_agent_done: bool = True,
         cost_weights: iout.CostWeights | None = None,
         termination_cost: float | None = None,
         exit_margin_m: float = 100.0,
@@ -278,6 +285,7 @@ class DataCollectionEnv(EnvBase):
         super().__init__(batch_size=checked_batch_size(batch_size), device=device)
         self.num_auvs = num_auvs
         self.flatten_agents = bool(flatten_agents)
+        self.per_agent_done = bool(per_agent_done)
         self.cost_weights = iout.CostWeights() if cost_weights is None else cost_weights
         if termination_cost is None:
             termination_cost = self.cost_weights.termination_cost(num_auvs)
@@ -318,12 +326,27 @@ class DataCollectionEnv(EnvBase):
         return "action" if self.flatten_agents else ("agents", "action")
 
     @property
-    def reward_key(self) -> tuple[str, ...] | str:
-        """The reward, ``("agents", "reward")`` (flat: ``"reward"``). ``cost`` and
-        ``stability_cost`` are further reward keys (``reward_keys``): to rescale, scale all
-        three together, e.g. ``RewardScaling(0.0, s, in_keys=env.reward_keys)`` (the Lyapunov
-        loss reads ``cost``; TorchRL's default ``in_keys`` would scale ``reward`` alone)."""
-        return "reward" if self.flatten_agents else ("agents", "reward")
+    def cost_keys(self) -> list[tuple[str, ...] | str]:
+        """The cost and the stability cost, ``[("agents", "cost"), ("agents",
+        "stability_cost")]`` (flat: ``["cost", "stability_cost"]``): observation keys (0 at
+        reset, then the last decision's), not reward keys, so that ``env.reward_key`` is the one
+        reward through every wrapper. To rescale the reward together with the cost the
+        Lyapunov loss reads: ``RewardScaling(0.0, s, in_keys=[env.reward_key, *env.cost_keys])``."""
+        prefix = () if self.flatten_agents else ("agents",)
+        return [(*prefix, k) if prefix else k for k in ("cost", "stability_cost")]
+
+    @property
+    def n_agents(self) -> int:
+        """The AUVs (TorchRL's multi-agent attribute, as ``VmasEnv.n_agents``)."""
+        return self.num_auvs
+
+    @property
+    def group_map(self) -> dict[str, list[str]]:
+        """One group, ``"agents"``, of the AUVs ``auv_0 ... auv_{N-1}`` (TorchRL's multi-agent
+        convention); the flat layout is one agent, ``{"agent": ["agent"]}``."""
+        if self.flatten_agents:
+            return {"agent": ["agent"]}
+        return {"agents": [f"auv_{i}" for i in range(self.num_auvs)]}
 
     # -- specs ---------------------------------------------------------------------------
     def _make_specs(self) -> None:
@@ -332,7 +355,7 @@ class DataCollectionEnv(EnvBase):
         self.rng.set_state(rng_state)
         shape, n, d = self.batch_size, self.num_auvs, self.observation_dim
         agent_shape = (*shape, n)
-        state = sample.exclude("agents", "observation")
+        state = sample.exclude("agents", "observation", *self.cost_keys)
         state_spec = unbounded_spec_like(state)
         flags = ("done", "terminated", "truncated")
 
@@ -340,20 +363,23 @@ class DataCollectionEnv(EnvBase):
             return {k: Categorical(2, shape=(*flag_shape, 1), dtype=torch.bool) for k in flags}
 
         if self.flatten_agents:
-            observation = {"observation": Unbounded(shape=(*shape, n * d), dtype=torch.float32)}
+            observation = {
+                "observation": Unbounded(shape=(*shape, n * d), dtype=torch.float32),
+                "cost": Unbounded(shape=(*shape, 1), dtype=torch.float32),
+                "stability_cost": Unbounded(shape=(*shape, 1), dtype=torch.float32),
+            }
             action = Bounded(low=-1.0, high=1.0, shape=(*shape, 3 * n), dtype=torch.float32)
             self.full_action_spec = Composite(action=action, shape=shape)
             self.full_reward_spec = Composite(
-                reward=Unbounded(shape=(*shape, 1), dtype=torch.float32),
-                cost=Unbounded(shape=(*shape, 1), dtype=torch.float32),
-                stability_cost=Unbounded(shape=(*shape, 1), dtype=torch.float32),
-                shape=shape,
+                reward=Unbounded(shape=(*shape, 1), dtype=torch.float32), shape=shape
             )
             self.full_done_spec = Composite(bool_flags(shape), shape=shape)
         else:
             observation = {
                 "agents": Composite(
                     observation=Unbounded(shape=(*agent_shape, d), dtype=torch.float32),
+                    cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
+                    stability_cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
                     shape=agent_shape,
                 )
             }
@@ -364,17 +390,16 @@ class DataCollectionEnv(EnvBase):
             self.full_reward_spec = Composite(
                 agents=Composite(
                     reward=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
-                    cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
-                    stability_cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
                     shape=agent_shape,
                 ),
                 shape=shape,
             )
-            self.full_done_spec = Composite(
-                agents=Composite(bool_flags(agent_shape), shape=agent_shape),
-                **bool_flags(shape),
-                shape=shape,
+            agent_flags = (
+                {"agents": Composite(bool_flags(agent_shape), shape=agent_shape)}
+                if self.per_agent_done
+                else {}
             )
+            self.full_done_spec = Composite(**agent_flags, **bool_flags(shape), shape=shape)
         self.observation_spec = Composite(
             **observation, **{k: v for k, v in state_spec.items()}, shape=shape
         )
@@ -438,6 +463,8 @@ class DataCollectionEnv(EnvBase):
             batch_size=shape,
         )
         self._write_observation(sim, state)
+        for key in self.cost_keys:  # no decision yet: no cost
+            state[key] = torch.zeros(*shape, *((n,) if not self.flatten_agents else ()), 1)
         return state
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
@@ -764,20 +791,19 @@ class DataCollectionEnv(EnvBase):
             out["reward"] = -out["cost"]
             out["stability_cost"] = stability.sum(-2)
             return
-        agent_terminated = ending[..., None]
-        agent_done = done[..., None, :].expand_as(agent_terminated)
-        out["agents"] = TensorDict(
-            {
-                "observation": out["agents", "observation"],
-                "cost": cost,
-                "reward": -cost,
-                "stability_cost": stability,
-                "terminated": agent_terminated,
-                "truncated": agent_done & ~agent_terminated,
-                "done": agent_done.clone(),
-            },
-            batch_size=(*out.batch_size, self.num_auvs),
-        )
+        agents = {
+            "observation": out["agents", "observation"],
+            "cost": cost,
+            "reward": -cost,
+            "stability_cost": stability,
+        }
+        if self.per_agent_done:
+            agent_terminated = ending[..., None]
+            agent_done = done[..., None, :].expand_as(agent_terminated)
+            agents["terminated"] = agent_terminated
+            agents["truncated"] = agent_done & ~agent_terminated
+            agents["done"] = agent_done.clone()
+        out["agents"] = TensorDict(agents, batch_size=(*out.batch_size, self.num_auvs))
 
     def _localise(
         self,

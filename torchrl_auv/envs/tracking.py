@@ -73,7 +73,8 @@ class AUVTrackingEnv(EnvBase):
 
     **Cost and reward.** ``cost = |wrap(psi_ref - psi)|/pi + |z_ref - z|/10 +
     |u_ref - u|/2`` on the true state at the end of the decision (>= 0, LAC's convention);
-    ``reward = -cost``. Both ``[*B, 1]``.
+    ``reward = -cost``. Both ``[*B, 1]``. ``reward`` is the one reward key (``env.reward_key``
+    through any wrapper); ``cost`` is an observation key (``env.cost_keys``; 0 at reset).
 
     **Start state.** Cruising: depth U(5, 15) m, heading U(-pi, pi), surge 1.5 m/s,
     the setpoints on the current pose, 1200 rpm; a fresh ocean per episode.
@@ -164,7 +165,11 @@ class AUVTrackingEnv(EnvBase):
             shape=shape,
         )
         self.state_spec = Composite(
-            {k: v.clone() for k, v in self.observation_spec.items() if k != "observation"},
+            {
+                k: v.clone()
+                for k, v in self.observation_spec.items()
+                if k not in ("observation", "cost")
+            },
             shape=shape,
         )
         self.action_spec = Bounded(low=-1.0, high=1.0, shape=(*shape, 3), dtype=torch.float32)
@@ -176,10 +181,14 @@ class AUVTrackingEnv(EnvBase):
             shape=shape,
         )
         self.reward_spec = Composite(
-            reward=Unbounded(shape=(*shape, 1), dtype=torch.float32),
-            cost=Unbounded(shape=(*shape, 1), dtype=torch.float32),
-            shape=shape,
+            reward=Unbounded(shape=(*shape, 1), dtype=torch.float32), shape=shape
         )
+
+    @property
+    def cost_keys(self) -> list[str]:
+        """``["cost"]``: an observation key (0 at reset, then the last decision's), not a
+        reward key, so that ``env.reward_key`` is the one reward through every wrapper."""
+        return ["cost"]
 
     def _set_seed(self, seed: int | None) -> None:
         self.rng = scene_generator(seed)
@@ -221,6 +230,7 @@ class AUVTrackingEnv(EnvBase):
         )
         td["asv_gnss_error"] = gnss_error_init((*shape, 2), self.sea.gnss_sigma, g)
         td["observation"] = self._observe(td)
+        td["cost"] = torch.zeros(*shape, 1)  # no decision yet: no cost
         return td
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
