@@ -44,7 +44,11 @@ def _checkpoint_steps(run_dir: Path) -> list[int]:
 
 def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
     run_dir = tmp_path / "run"
-    result = _run(_command(run_dir, "collector.total_frames=200", "logger.backend=wandb"))
+    result = _run(
+        _command(
+            run_dir, "collector.total_frames=200", "logger.backend=wandb", "eval.video_steps=6"
+        )
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     with open(run_dir / "eval.csv") as handle:
         rows = list(csv.DictReader(handle))
@@ -59,6 +63,11 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
     summary = (run_dir / "summary.md").read_text()
     assert "- frames: 200" in summary and "bytes per stored frame: 660" in summary
     assert _checkpoint_steps(run_dir) == [200]
+    # the run's policy in one held-out scene, the reset and 6 decisions, as a video
+    import imageio.v3 as iio
+
+    assert iio.imread(run_dir / "eval_episode.mp4").shape == (7, 400, 400, 3)
+    assert "- evaluation video: eval_episode.mp4: sac, ideal, 6 decisions" in summary
     # the offline run's record file (protobuf records, strings stored as UTF-8) holds the
     # config and the train/eval metrics by name
     (record_file,) = (run_dir / "wandb").glob("offline-run-*/run-*.wandb")
@@ -70,6 +79,7 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
         b"time/frames_per_s",
         b"eval/ideal/sac/ssn",
         b"eval/ideal/expert/ssn",
+        b"eval/episode",
     ):
         assert name in records, name
 
@@ -82,6 +92,7 @@ def test_sac_runs_with_tiny_overrides_and_writes_its_outputs(tmp_path):
         ("env.rate_model=fast", "env.rate_model"),
         ("collector.backend=slurm", "collector.backend"),
         ("collector.total_frames=0", "collector.total_frames"),
+        ("eval.video_steps=-1", "eval.video_steps"),
     ],
 )
 def test_an_unknown_value_fails_before_any_work_naming_it(tmp_path, override, named):

@@ -17,6 +17,7 @@ frame (``x`` north, ``y`` east, metres). Used by the gymnasium view's ``render_m
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Sequence
 
@@ -55,9 +56,6 @@ class _Canvas:
         self.scale = size / span  # pixels per metre
         self.origin = np.array([-_MARGIN * north, -_MARGIN * east])  # (north, east) of pixel 0
         self.image = np.zeros((size, size, 3), np.uint8)
-        rows, cols = np.mgrid[0:size, 0:size]
-        self.north = (size - 0.5 - rows) / self.scale + self.origin[0]
-        self.east = (cols + 0.5) / self.scale + self.origin[1]
 
     def pixel(self, north_east: np.ndarray) -> np.ndarray:
         """(row, col) float pixel coordinates of points ``[..., 2]`` in metres."""
@@ -84,16 +82,36 @@ class _Canvas:
         inside = ((points >= 0) & (points < self.size)).all(-1)
         self.image[points[inside, 0], points[inside, 1]] = colour
 
+    def dots(self, points: np.ndarray, colour) -> None:
+        """One pixel per point ``[..., 2]`` (metres), those inside the image."""
+        rc = np.floor(self.pixel(np.asarray(points).reshape(-1, 2))).astype(int)
+        inside = ((rc >= 0) & (rc < self.size)).all(-1)
+        self.image[rc[inside, 0], rc[inside, 1]] = colour
+
+
+@functools.lru_cache(maxsize=8)
+def _background(area_m: tuple[float, float], size: int, depth_bytes: bytes, grid: int):
+    """The seabed and the area's edge (the same for every decision of a scene: cached)."""
+    canvas = _Canvas(area_m, size)
+    depth = np.frombuffer(depth_bytes, np.float64).reshape(grid, grid)
+    _seabed(canvas, depth, area_m)
+    corners = np.array([[0, 0], [area_m[0], 0], [area_m[0], area_m[1]], [0, area_m[1]], [0, 0]])
+    for start, end in itertools.pairwise(corners):
+        canvas.line(start, end, _EDGE)
+    return canvas.image
+
 
 def _seabed(canvas: _Canvas, depth: np.ndarray, area_m: Sequence[float]) -> None:
     """Depth grid ``[G, G]`` over the area (row = north, column = east) as blues; outside grey."""
-    grid = depth.shape[0]
-    i = np.clip(np.rint(canvas.north / area_m[0] * (grid - 1)).astype(int), 0, grid - 1)
-    j = np.clip(np.rint(canvas.east / area_m[1] * (grid - 1)).astype(int), 0, grid - 1)
+    grid, size = depth.shape[0], canvas.size
+    rows, cols = np.mgrid[0:size, 0:size]
+    north = (size - 0.5 - rows) / canvas.scale + canvas.origin[0]  # each pixel's centre (m)
+    east = (cols + 0.5) / canvas.scale + canvas.origin[1]
+    i = np.clip(np.rint(north / area_m[0] * (grid - 1)).astype(int), 0, grid - 1)
+    j = np.clip(np.rint(east / area_m[1] * (grid - 1)).astype(int), 0, grid - 1)
     shade = (depth[i, j] - depth.min()) / max(float(np.ptp(depth)), 1e-6)  # 0 shallow, 1 deep
     blue = np.stack([60 - 40 * shade, 140 - 80 * shade, 210 - 60 * shade], -1)
-    inside = (canvas.north >= 0) & (canvas.north <= area_m[0])
-    inside &= (canvas.east >= 0) & (canvas.east <= area_m[1])
+    inside = (north >= 0) & (north <= area_m[0]) & (east >= 0) & (east <= area_m[1])
     canvas.image[:] = np.where(inside[..., None], blue, 200).astype(np.uint8)
 
 
@@ -122,10 +140,9 @@ def top_view(
         raise ValueError(f"size must be an int >= 32 pixels, got {size!r}")
     canvas = _Canvas(area_m, size)
     task = sim["task"]
-    _seabed(canvas, task["terrain", "depth"].double().numpy(), area_m)
-    corners = np.array([[0, 0], [area_m[0], 0], [area_m[0], area_m[1]], [0, area_m[1]], [0, 0]])
-    for start, end in itertools.pairwise(corners):
-        canvas.line(start, end, _EDGE)
+    depth = np.ascontiguousarray(task["terrain", "depth"].double().numpy())
+    area = (float(area_m[0]), float(area_m[1]))
+    canvas.image[:] = _background(area, size, depth.tobytes(), depth.shape[0])
     nodes = task["nodes", "position"].double().numpy()[:, :2]
     buffers = task["nodes", "buffer"].double().numpy()
     fill = buffers / max(float(buffers.max()), 1e-9)
@@ -136,9 +153,9 @@ def top_view(
     eta = sim["truth", "eta"].double().numpy()
     colours = AUV_COLOURS[np.arange(len(eta)) % len(AUV_COLOURS)]
     if tracks is not None:
-        for step in np.asarray(tracks):
-            for position, colour in zip(step, colours, strict=True):
-                canvas.disc(position, max(size / 400, 0.8), colour)
+        tracks = np.asarray(tracks)
+        for k, colour in enumerate(colours):
+            canvas.dots(tracks[:, k], colour)
     auvs = task["auvs"]
     targets = auvs["target"].numpy()
     in_service = auvs["in_service"].numpy()

@@ -21,6 +21,7 @@ module                      builds
                             evaluation
 ``progress``                :class:`Progress`, the run's counters (frames, updates)
 ``tracking``                the loop's bookkeeping: metrics, progress bar, learning curve
+``episode_video``           one held-out episode as top-view frames and an mp4 (eval.video_steps)
 ``evaluation``              held-out evaluation of policies (the task's metrics)
 ==========================  ========================================================================
 
@@ -72,6 +73,7 @@ from torchrl_auv.training.env import (
     make_env,
     make_history_env,
 )
+from torchrl_auv.training.episode_video import episode_frames, write_episode_video
 from torchrl_auv.training.evaluation import (
     POLICIES,
     SameRowAs,
@@ -234,6 +236,7 @@ __all__ = [
     "env_factory",
     "env_from_config",
     "env_history",
+    "episode_frames",
     "episode_stats",
     "evaluate",
     "evaluation_policies",
@@ -289,6 +292,7 @@ __all__ = [
     "values_key",
     "with_next_candidates",
     "with_next_prior",
+    "write_episode_video",
     "write_eval",
     "write_summary",
 ]

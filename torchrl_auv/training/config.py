@@ -53,7 +53,11 @@ POSITIVE_INTEGERS = (
 )
 
 #: counts that may be zero
-NON_NEGATIVE_INTEGERS = ("demonstrations.frames", "collector.init_random_frames")
+NON_NEGATIVE_INTEGERS = (
+    "demonstrations.frames",
+    "collector.init_random_frames",
+    "eval.video_steps",
+)
 
 
 def _choices() -> dict[str, tuple[str, ...]]:

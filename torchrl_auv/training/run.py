@@ -38,6 +38,7 @@ from torchrl.checkpoint import Checkpoint
 from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
 from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.env import held_out_env
+from torchrl_auv.training.episode_video import episode_frames, write_episode_video
 from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.learner import Learner
 from torchrl_auv.training.loggers import close_logger, log_metrics, logger_from_config
@@ -153,9 +154,11 @@ def _finish_run(
     """Evaluate ``policies`` (and nothing else: pass the reference ones in) on the held-out
     ``cfg.eval`` scenes (the run's envs, :func:`~torchrl_auv.training.held_out_env`; rows side
     by side in ``cfg.eval.workers`` processes, 1 when absent), write ``summary.md`` (with
-    the evaluation's wall time), log ``eval/<sea>/<policy>/<metric>``, close the logger and
-    write ``eval.csv`` last (its presence marks a finished run) and let go of the folder's
-    lock. Returns the summary's path."""
+    the evaluation's wall time; with ``cfg.eval.video_steps`` the first policy's episode in
+    one held-out scene, ``cfg.eval.seed`` and the first sea, as ``eval_episode.mp4``), log
+    ``eval/<sea>/<policy>/<metric>``, close the logger and write ``eval.csv`` last (its
+    presence marks a finished run) and let go of the folder's lock. Returns the summary's
+    path."""
     eval_env = held_out_env(cfg, cfg.eval.num_envs, cfg.eval.steps)
     began = time.perf_counter()
     workers = OmegaConf.select(cfg, "eval.workers", default=None) or 1
@@ -169,6 +172,14 @@ def _finish_run(
         workers=workers,
     )
     facts = {**facts, "evaluation wall time (s)": time.perf_counter() - began}
+    video_steps = OmegaConf.select(cfg, "eval.video_steps", default=0) or 0
+    if video_steps:  # the first policy (the run's own), one held-out scene (eval.seed)
+        name, policy = next(iter(policies.items()))
+        sea = cfg.eval.sea_states[0]
+        one_scene = held_out_env(cfg, 1, video_steps)(sea, cfg.eval.seed)
+        frames = episode_frames(one_scene, policy, video_steps)
+        path = write_episode_video(frames, run_dir / "eval_episode.mp4", logger=logger, step=step)
+        facts["evaluation video"] = f"{path.name}: {name}, {sea}, {len(frames) - 1} decisions"
     summary = write_summary(run_dir, title=title, rows=rows, facts=facts)
     for row in rows:
         log_metrics(
