@@ -50,7 +50,7 @@ from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summ
 from torchrl_auv.training.tracking import RunTracker
 from torchrl_auv.training.verified_rotation import VerifiedRotation
 
-__all__ = ["Progress", "Run"]
+__all__ = ["Run"]
 
 log = logging.getLogger(__name__)
 
