@@ -14,9 +14,15 @@ from torchrl.data.datasets import MinariExperienceReplay  # noqa: E402
 
 from torchrl_auv.cli import minari_datasets as cli  # noqa: E402
 from torchrl_auv.envs import DataCollectionEnv, ScriptedExpert  # noqa: E402
-from torchrl_auv.envs.minari_datasets import MinariReplay, create_minari_dataset  # noqa: E402
+from torchrl_auv.envs.minari_datasets import (  # noqa: E402
+    REFERENCE_SEED_OFFSET,
+    MinariReplay,
+    create_minari_dataset,
+    mean_return,
+)
 
 STEPS = 12
+OPTIONS = {"max_steps": STEPS, "sea_state": "es"}
 
 
 @pytest.fixture
@@ -33,8 +39,7 @@ def expert_set(minari_root):
         episodes=2,
         seed=3,
         ref_episodes=2,
-        max_steps=STEPS,
-        sea_state="es",
+        **OPTIONS,
     )
 
 
@@ -56,8 +61,12 @@ def test_minari_reads_back_the_experts_episodes(expert_set):
         assert len(episode.infos["metrics"]["sdr"]) == steps + 1
     meta = dataset.storage.metadata
     assert meta["ref_max_score"] > meta["ref_min_score"]  # the expert above random actions
+    expert_on_reference_scenes = mean_return(
+        "data_collection", "expert", episodes=2, seed=3 + REFERENCE_SEED_OFFSET, **OPTIONS
+    )  # the expert is deterministic: its reference score is exactly this
+    assert meta["ref_max_score"] == pytest.approx(expert_on_reference_scenes)
     env = dataset.recover_environment()
-    assert env.spec.kwargs == {"max_steps": STEPS, "sea_state": "es"}
+    assert env.spec.kwargs == OPTIONS
     obs, _ = env.reset(seed=0)
     assert env.observation_space.contains(obs)
 

@@ -8,8 +8,8 @@ layout is the gymnasium view's (:mod:`torchrl_auv.envs.gym`): flat float32 obser
 actions in ``[-1, 1]``, the reward summed over the AUVs, and per step the infos the view returns
 (``cost``, 0 at reset, and the episode's ``metrics`` so far). ``ref_min_score`` and
 ``ref_max_score`` are the mean returns of random actions and of the scripted expert over
-``ref_episodes`` other scenes (D4RL's convention), so ``dataset.get_normalized_score`` reads
-0 for random and 1 for the expert.
+``ref_episodes`` other scenes (seeded ``seed +`` :data:`REFERENCE_SEED_OFFSET`; D4RL's
+convention), so ``minari.get_normalized_score`` reads 0 for random and 1 for the expert.
 
 Why batched rollouts and not Minari's ``DataCollector``: the collector steps one gymnasium env
 at a time and needs ``jax`` (``minari[create]``); a batch of scenes is one TorchRL rollout.
@@ -59,6 +59,7 @@ from torchrl_auv.envs.tracking import AUVTrackingEnv
 __all__ = [
     "DATASET_ENVS",
     "POLICIES",
+    "REFERENCE_SEED_OFFSET",
     "MinariReplay",
     "create_minari_dataset",
     "episode_buffers",
@@ -79,8 +80,9 @@ POLICIES: dict[str, tuple[Callable[[EnvBase], Any] | None, tuple[str, ...]]] = {
     "idle": (IdlePolicy, ("data_collection",)),
 }
 
-# the reference scores' scenes: seeds far from any dataset's own
-_REFERENCE_SEED_OFFSET = 1_000_003
+#: the reference scores' scenes are seeded ``seed + REFERENCE_SEED_OFFSET``: far from any
+#: dataset's own
+REFERENCE_SEED_OFFSET = 1_000_003
 
 
 def _make_env(env: str, episodes: int, seed: int, options: dict[str, Any]) -> EnvBase:
@@ -208,7 +210,7 @@ def create_minari_dataset(
     if dataset_id in minari.list_local_datasets():
         raise ValueError(f"dataset_id {dataset_id!r} exists locally; choose another id or version")
     buffers = episode_buffers(env, policy, episodes=episodes, seed=seed, **options)
-    reference = {"episodes": ref_episodes, "seed": seed + _REFERENCE_SEED_OFFSET, **options}
+    reference = {"episodes": ref_episodes, "seed": seed + REFERENCE_SEED_OFFSET, **options}
     spec = gymnasium.spec(DATASET_ENVS[env][0])
     spec = gymnasium.envs.registration.EnvSpec(
         id=spec.id, entry_point=spec.entry_point, kwargs=dict(options)
