@@ -199,8 +199,9 @@ class Run:
     before any work, seeds, creates the folder (:func:`_start_run`) and the logger.
 
     The calls, in the order a recipe makes them: :meth:`restore` (what a checkpoint holds; the
-    newest one loaded on resume), :meth:`collect` (the loop), :meth:`finish`, :meth:`evaluate`.
-    Each refuses to run before the one it needs.
+    newest one loaded on resume), :meth:`collect` (the loop), :meth:`finish`, :meth:`evaluate`;
+    :meth:`collect` refuses to run before :meth:`restore`, :meth:`finish` before
+    :meth:`collect`.
 
     Attributes:
         cfg: the recipe config.
@@ -256,7 +257,7 @@ class Run:
         ``cfg.checkpoint.every_frames``), then yields each batch after adding its frames to
         ``progress.frames``; after the loop's body, logs what the body gave :meth:`log` and
         evaluates and checkpoints when due. Yields nothing when :meth:`restore` found the run
-        complete."""
+        complete. A ``break`` out of the loop leaves the batch it breaks on unlogged."""
         if self.checkpoint is None:
             raise RuntimeError("call Run.restore(...) before Run.collect(collector)")
         self.tracker = RunTracker(
