@@ -106,15 +106,17 @@ def _policy(policy: str | Callable | None, env_name: str, env: EnvBase):
     return None if build is None else build(env)
 
 
-def _rollout(env_name: str, policy, episodes: int, seed: int, options: dict) -> TensorDictBase:
+def _first_episodes(
+    env_name: str, policy, episodes: int, seed: int, options: dict
+) -> Iterator[tuple[TensorDictBase, int]]:
+    """Each scene's rollout and the length of its first episode: a scene that has ended stops
+    stepping, and the rollout stops once every scene has ended (TorchRL's partial steps)."""
     env = _make_env(env_name, episodes, seed, options)
     with torch.no_grad():
-        return env.rollout(
-            env.max_steps,
-            _policy(policy, env_name, env),
-            break_when_any_done=False,
-            auto_cast_to_device=False,
-        )
+        data = env.rollout(env.max_steps, _policy(policy, env_name, env), break_when_all_done=True)
+    done = data["next", "done"].reshape(episodes, -1)
+    for i in range(episodes):
+        yield data[i], int(done[i].nonzero()[0, 0]) + 1
 
 
 def _infos(data: TensorDictBase, end: int) -> dict[str, Any]:
@@ -148,12 +150,8 @@ def episode_buffers(
     """
     from minari.data_collector import EpisodeBuffer
 
-    data = _rollout(env, policy, episodes, seed, options)
-    done = data["next", "done"].reshape(episodes, -1)
     buffers = []
-    for i in range(episodes):
-        ep = data[i]
-        end = int(done[i].nonzero()[0, 0]) + 1
+    for i, (ep, end) in enumerate(_first_episodes(env, policy, episodes, seed, options)):
         obs = torch.cat([ep["observation"][:1], ep["next", "observation"][:end]])
         buffers.append(
             EpisodeBuffer(
@@ -171,8 +169,11 @@ def episode_buffers(
 
 def mean_return(env: str, policy: str | Callable, *, episodes: int, seed: int, **options) -> float:
     """The mean undiscounted return of ``policy`` over ``episodes`` scenes (each to its end)."""
-    buffers = episode_buffers(env, policy, episodes=episodes, seed=seed, **options)
-    return float(np.mean([b.rewards.sum() for b in buffers]))
+    returns = [
+        float(ep["next", "reward"][:end].double().sum())
+        for ep, end in _first_episodes(env, policy, episodes, seed, options)
+    ]
+    return float(np.mean(returns))
 
 
 def create_minari_dataset(

@@ -24,6 +24,7 @@ from torchrl.record.loggers.wandb import WandbLogger
 
 from torchrl_auv.envs import SIM_KEY
 from torchrl_auv.envs.render import top_view
+from torchrl_auv.training.evaluation import _first_episode
 
 __all__ = ["FPS", "episode_frames", "write_episode_video"]
 
@@ -38,10 +39,10 @@ def episode_frames(env, policy, steps: int, *, size: int = 400) -> np.ndarray:
     if not (isinstance(steps, int) and steps >= 1):
         raise ValueError(f"steps must be an int >= 1, got {steps!r}")
     with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
-        rollout = env.rollout(steps, policy, break_when_any_done=False)
-    scene = rollout.reshape(-1, rollout.shape[-1])[0].cpu()
-    done = scene["next", "done"][:, 0]
-    end = int(done.nonzero()[0, 0]) + 1 if done.any() else len(done)
+        rollout = env.rollout(steps, policy, break_when_all_done=True)
+    rollout = rollout.reshape(-1, rollout.shape[-1]).cpu()
+    end = int(_first_episode(rollout)[0][0]) + 1  # the first scene's first episode
+    scene = rollout[0]
     states = [scene[0][SIM_KEY], *scene["next", SIM_KEY][:end].unbind(0)]
     positions = np.stack([s["truth", "eta"][:, :2].double().numpy() for s in states])
     area = getattr(env, "base_env", env).config.area_m
