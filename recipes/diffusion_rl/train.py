@@ -11,6 +11,8 @@
    (and, with ``selection.include_actor``, the actor's own action); the selection rule executes
    the medoid unless a candidate's pessimistic Q beats it (``selection.anchor``), or the
    highest Q (``selection.anchor=null``, the paper).
+   With ``finetune.steps > 0`` the proposer itself is fine-tuned after each batch's updates on
+   its own candidates, weighted by their Q (``torchrl_auv.training.proposer_finetuning``).
    With ``residual.bound > 0`` instead: the proposer alone's action (the medoid of
    ``proposer.alone_candidates``) plus a bounded residual from the actor, which acts
    (``torchrl_auv.training.residual``; no selection, no "RL" or rank rows).
@@ -22,6 +24,8 @@
 """
 
 from __future__ import annotations
+
+import copy
 
 import hydra
 from omegaconf import DictConfig
@@ -68,8 +72,12 @@ def main(cfg: DictConfig) -> None:
             critic_out_key=q_critic.out_keys[0],
             rule=rule,
         )
+    #    finetune.steps > 0: the proposer learns too; the first stage's stays the prior's row
+    finetune = training.finetuning_from_config(cfg, proposer)
+    prior = copy.deepcopy(proposer) if finetune else proposer
     buffer = training.buffer_from_config(cfg, run.dir)
-    remaining = run.restore(learner, buffer)  # resume: the newest; the learner counts updates
+    tuned = {"proposer": proposer, "finetune": finetune} if finetune else None
+    remaining = run.restore(learner, buffer, modules=tuned)  # resume: the newest checkpoint
     next_keys = training.next_state_keys(cfg)  # what the critics' backup reads of s'
     if not bound:
         training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
@@ -84,16 +92,19 @@ def main(cfg: DictConfig) -> None:
         buffer.extend(training.select_for_replay(data, next_keys))
         for _ in range(cfg.optim.updates_per_batch):
             out = learner.step(buffer.sample().to(cfg.device))
+        metrics = learner.metrics(out)
+        if finetune:  # the proposer toward the candidates its critics prefer
+            metrics.update(finetune.step(data, run.progress.frames))
         if not bound:
             training.start_deviating(rule, run.progress.frames, cfg)
         collector.update_policy_weights_()  # worker processes / Ray act with the new weights
-        run.log(learner.metrics(out))
+        run.log(metrics)
     facts = {**stage.facts, **run.finish(collector)}
 
     # 4. evaluation on held-out seeds: the framework, each rank alone (OA, CA1, ...), the actor
     #    alone, the proposer alone, the expert and random actions
     policies = training.evaluation_policies_from_config(
-        cfg, "diffusion_rl", policy, None if bound else actor, proposer
+        cfg, "diffusion_rl", policy, None if bound else actor, prior
     )
     title = "Diffusion + residual SAC" if bound else "Diffusion + Q selection + SAC"
     print(run.evaluate(policies, title=title, facts=facts).read_text())

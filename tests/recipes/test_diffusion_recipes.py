@@ -55,7 +55,9 @@ def _eval_rows(run_dir: Path) -> list[dict]:
 @pytest.mark.parametrize("recipe", ["diffusion", "diffusion_rl", "diffusion_lac"])
 def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
     run_dir = tmp_path / "run"
-    result = _run(recipe, run_dir, *([] if recipe == "diffusion" else RL_TINY))
+    # Diffusion+RL also fine-tunes its proposer on its candidates (finetune.*)
+    finetune = ["finetune.steps=2", "finetune.start_frames=200"] if recipe == "diffusion_rl" else []
+    result = _run(recipe, run_dir, *([] if recipe == "diffusion" else RL_TINY), *finetune)
     assert result.returncode == 0, result.stderr[-3000:]
     # the first stage is one cached artefact beside the run, named in the summary
     (stage,) = (tmp_path / "first_stage").glob("ideal-s_surface-shannon-seed0-*")
@@ -69,7 +71,9 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
         assert {"proposer alone", "RL", "OA", "CA1", "CA4"} <= set(policies)
         assert "CA5" not in policies
     assert "- frames: 200" in (run_dir / "summary.md").read_text()
-    assert (run_dir / "train_curve.csv").exists()
+    curve = (run_dir / "train_curve.csv").read_text()
+    if finetune:  # from the second batch on (start_frames 200), in the training curve
+        assert "100,finetune/loss" not in curve and "200,finetune/loss" in curve
 
 
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget

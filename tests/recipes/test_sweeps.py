@@ -22,7 +22,7 @@ REPO = Path(__file__).resolve().parents[2]
 RECIPES = REPO / "recipes"
 #: The grids of the issue: Fig. 7 3 frameworks x 3 seas, Table II 2 x 3 controllers x 2 seas,
 #: Table III 4 x 3, alpha 4 values, forms 3, tiny 2 frameworks, rl_stage (issue [21/26]) 3 x 3,
-#: rl_stage_residual 2 x 3,
+#: rl_stage_residual 2 x 3, rl_stage_finetune 1 x 3,
 #: first_stage (issue [13/18]) the
 #: proposer alone x 3 seas; each x its seeds.
 JOBS = {
@@ -32,6 +32,7 @@ JOBS = {
     "table3": 4 * 3 * 3,
     "rl_stage": 3 * 3 * 5,
     "rl_stage_residual": 2 * 3 * 5,
+    "rl_stage_finetune": 1 * 3 * 5,
     "alpha": 4 * 3,
     "forms": 3 * 3,
     "first_stage": 3 * 3,

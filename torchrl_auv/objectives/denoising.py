@@ -9,7 +9,10 @@ r"""``DenoisingLoss``: the epsilon-prediction loss of the diffusion proposer (pa
 with :math:`t` uniform in :math:`\{0, \dots, T-1\}`, :math:`x_0` the demonstrated action chunk
 normalised to :math:`[-1, 1]` and :math:`s` the proposer's conditioning state (standardised by
 the proposer). Chunk steps past the end of an episode (``action_chunk_mask`` false) are left
-out of the mean.
+out of the mean. With per-sample weights :math:`w \ge 0` (``sample_weight``, e.g. advantage
+weights over the proposer's own candidates when it is fine-tuned) the mean is weighted:
+:math:`\sum_{i,h} w_i m_{ih} e_{ih} / \sum_{i,h} w_i m_{ih}`, which is the plain loss when every
+:math:`w_i = 1`.
 """
 
 from __future__ import annotations
@@ -33,8 +36,10 @@ class DenoisingLoss(LossModule):
 
     Keys (``set_keys``): ``action`` (the clean chunk ``[*B, H, A]``, default
     ``"action_chunk"``), ``action_mask`` (``[*B, H]``, default ``"action_chunk_mask"``, used
-    when present), ``state`` (default ``None``: the proposer builds its state from its own
-    keys; set a key to read a flat state instead). Output: ``loss_denoising``.
+    when present), ``sample_weight`` (``[*B]``, >= 0, default ``"sample_weight"``, used when
+    present: a weighted mean over the samples), ``state`` (default ``None``: the proposer
+    builds its state from its own keys; set a key to read a flat state instead). Output:
+    ``loss_denoising``.
 
     Args:
         proposer: the proposer to train.
@@ -60,11 +65,13 @@ class DenoisingLoss(LossModule):
         Attributes:
             action: clean action chunk ``[*B, H, A]``.
             action_mask: validity of each chunk step ``[*B, H]`` (optional in the data).
+            sample_weight: weight of each sample ``[*B]`` (optional in the data).
             state: flat conditioning state, or ``None`` to let the proposer build it.
         """
 
         action: NestedKey = "action_chunk"
         action_mask: NestedKey = "action_chunk_mask"
+        sample_weight: NestedKey = "sample_weight"
         state: NestedKey | None = None
 
     default_keys = _AcceptedKeys
@@ -123,9 +130,18 @@ class DenoisingLoss(LossModule):
         x_t = proposer.schedule.add_noise(x0, eps, t)
         error = (proposer.predict_noise(x_t, t, state) - eps).square().mean(-1)  # [*B, H]
         mask = tensordict.get(self.tensor_keys.action_mask, None)
-        if mask is None:
+        sample_weight = tensordict.get(self.tensor_keys.sample_weight, None)
+        if mask is None and sample_weight is None:
             loss = error.mean()
         else:
-            weight = mask.to(error.dtype)
-            loss = (error * weight).sum() / weight.sum().clamp_min(1.0)
+            weight = torch.ones_like(error) if mask is None else mask.to(error.dtype)
+            if sample_weight is not None:
+                if tuple(sample_weight.shape) != tuple(batch):
+                    raise ValueError(
+                        f"sample_weight key {self.tensor_keys.sample_weight!r} must be shaped "
+                        f"{list(batch)} (one weight per chunk), got {list(sample_weight.shape)}"
+                    )
+                weight = weight * sample_weight.to(error.dtype).unsqueeze(-1)
+            floor = 1.0 if sample_weight is None else torch.finfo(error.dtype).tiny
+            loss = (error * weight).sum() / weight.sum().clamp_min(floor)
         return TensorDict({"loss_denoising": loss}, batch_size=[])

@@ -14,6 +14,7 @@ module                      builds
 ``candidates``              the selection rule of ``cfg.selection``, the next state's candidates the
                             critics' candidate backup reads
 ``residual``                the executed learner: a bounded residual actor on the prior's choice
+``proposer_finetuning``     the proposer fine-tuned on its own candidates, weighted by the critic
 ``replay``                  the replay buffer and what it stores of a frame
 ``demonstration_replay``    SAC's expert demonstrations, half of each batch (RLPD)
 ``collectors``              TorchRL collectors: local, worker processes, Ray
@@ -129,6 +130,12 @@ from torchrl_auv.training.networks import (
     observation_action_dims,
 )
 from torchrl_auv.training.progress import Progress
+from torchrl_auv.training.proposer_finetuning import (
+    ProposerFineTuning,
+    candidate_weights,
+    check_finetune,
+    finetuning_from_config,
+)
 from torchrl_auv.training.replay import (
     REPLAY_KEYS,
     buffer_from_config,
@@ -205,6 +212,7 @@ __all__ = [
     "ObsActionMLP",
     "Progress",
     "ProgressState",
+    "ProposerFineTuning",
     "RankedCandidate",
     "Run",
     "RunFolderInUse",
@@ -219,9 +227,11 @@ __all__ = [
     "buffer_from_config",
     "build_first_stage",
     "bytes_per_frame",
+    "candidate_weights",
     "check_choices",
     "check_config",
     "check_endpoint",
+    "check_finetune",
     "check_ray_address",
     "check_ray_backend",
     "check_residual",
@@ -244,6 +254,7 @@ __all__ = [
     "exit_policy",
     "expert_policy",
     "feedback_batch",
+    "finetuning_from_config",
     "first_stage_frames",
     "first_stage_from_config",
     "first_stage_values",

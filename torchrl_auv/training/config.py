@@ -20,6 +20,7 @@ from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
 from torchrl_auv.training.candidates import check_selection
 from torchrl_auv.training.collectors import COLLECTOR_BACKENDS, check_ray_backend
+from torchrl_auv.training.proposer_finetuning import check_finetune
 from torchrl_auv.training.residual import check_residual
 
 __all__ = [
@@ -120,6 +121,15 @@ def check_choices(cfg: Mapping) -> None:
     residual = _get(cfg, "residual")
     if isinstance(residual, Mapping):
         check_residual(residual, _get(cfg, "proposer.alone_replan_every"))
+    finetune = _get(cfg, "finetune")
+    if isinstance(finetune, Mapping):
+        check_finetune(finetune)
+        if finetune.get("steps") and _get(cfg, "residual.bound"):
+            raise ValueError(
+                "finetune.steps > 0 fine-tunes the proposer on the selection's candidates: "
+                "it needs the selection (residual.bound=0), got residual.bound="
+                f"{_get(cfg, 'residual.bound')!r}"
+            )
     replan, horizon = _get(cfg, "proposer.alone_replan_every"), _get(cfg, "proposer.horizon")
     if replan is not None and horizon is not None and replan > horizon:
         raise ValueError(
