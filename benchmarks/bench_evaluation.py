@@ -108,7 +108,7 @@ def _train_batches(cfg, env, learner, policy, batches: int, worker=None) -> floa
 def main() -> None:
     args = setup(__doc__, add_arguments=_arguments)
     from torchrl_auv import training
-    from torchrl_auv.training.evaluation_pool import RowWorker
+    from torchrl_auv.evaluation import RowWorker
 
     args.decisions = args.decisions or (10 if args.quick else 100)
     args.batches = args.batches or (1 if args.quick else 3)

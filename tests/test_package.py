@@ -1,4 +1,5 @@
-"""Package-level checks: version, subpackage docstrings, the layers of the package docstring."""
+"""Package-level checks: version, subpackage docstrings, the layers of the package docstring,
+no import circle between files."""
 
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ ALLOWED_IMPORTS: dict[str, set[str]] = {
     "modules": set(),
     "objectives": {"modules"},
     "advisor": {"objectives"},
+    "evaluation": {"physics", "estimation", "control", "iout", "envs", "modules", "objectives"},
     "training": {
         "physics",
         "estimation",
@@ -34,9 +36,11 @@ ALLOWED_IMPORTS: dict[str, set[str]] = {
         "modules",
         "objectives",
         "advisor",
+        "evaluation",
     },
     "report": {
         "training",
+        "evaluation",
         "physics",
         "estimation",
         "control",
@@ -66,9 +70,14 @@ def _imported_modules(path: Path) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             if node.level:  # relative import: resolve against this module's package
                 base = package.rsplit(".", node.level)[0]
-                names.add(f"{base}.{node.module}" if node.module else base)
+                module = f"{base}.{node.module}" if node.module else base
             elif node.module:
-                names.add(node.module)
+                module = node.module
+            else:
+                continue
+            names.add(module)
+            # `from package import submodule` imports that file too
+            names.update(f"{module}.{alias.name}" for alias in node.names)
     return names
 
 
@@ -95,6 +104,68 @@ def test_layer_imports_only_layers_below(layer):
                 assert parts[1] in allowed, f"{path.name} imports {name}: not below {layer}"
             if layer in PLAIN_TORCH_LAYERS:
                 assert parts[0] != "torchrl", f"{path.name} imports {name} in a plain-torch layer"
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE_ROOT.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _file_imports() -> dict[str, set[str]]:
+    """Each module file of the package (``__init__`` files left out: they re-export) -> the
+    package's module files it imports anywhere in it (module level or inside a function)."""
+    paths = {_module_name(p): p for p in PACKAGE_ROOT.rglob("*.py")}
+    files = {name for name, path in paths.items() if path.name != "__init__.py"}
+    graph: dict[str, set[str]] = {}
+    for name in files:
+        targets = set()
+        for imported in _imported_modules(paths[name]):
+            if imported in files and imported != name:
+                targets.add(imported)
+        graph[name] = targets
+    return graph
+
+
+def _import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one file (Tarjan's algorithm)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    circles: list[list[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for other in graph[node]:
+            if other not in index:
+                visit(other)
+                low[node] = min(low[node], low[other])
+            elif other in stack:
+                low[node] = min(low[node], index[other])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                circles.append(sorted(component))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return circles
+
+
+def test_no_two_files_import_each_other_even_through_others():
+    assert _import_circles(_file_imports()) == []
+
+
+def test_the_circle_check_finds_a_circle():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert _import_circles(graph) == [["a", "b", "c"]]
+    assert _import_circles({"a": {"b"}, "b": set()}) == []
 
 
 def test_the_library_imports_and_collects_without_the_ray_extra():

@@ -3,9 +3,10 @@
 What a pip user gets (the sdist, and the wheel built from it), checked the way they would use
 it (slow: a venv with torch, TorchRL and their dependencies from the package index, then a
 short training run; about 5-10 minutes):
-torch pinned first (as the Makefile does), the wheel next with its declared dependencies, then,
-from a folder outside the checkout with nothing of the checkout on ``sys.path``: the package
-imports, ships ``py.typed`` and its recipes, registers both gymnasium ids, builds both envs;
+torch pinned first (as the Makefile does), the wheel next with its declared (core) dependencies,
+then, from a folder outside the checkout with nothing of the checkout on ``sys.path``: the
+package imports, ships ``py.typed`` and its recipes, registers both gymnasium ids, builds both
+envs; the console refuses the recipes, naming the ``recipes`` extra; with the extra installed:
 the Pendulum composition example runs; ``torchrl-auv train framework=diffusion_lac
 preset=quick`` trains a few hundred frames and writes its summary.
 """
@@ -75,6 +76,7 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
     venv.create(tmp_path / "venv", with_pip=True)
     python = tmp_path / "venv" / "bin" / "python"
     _run([str(python), "-m", "pip", "install", "--quiet", TORCH], cwd=tmp_path, env=env)
+    # the core alone: torch, torchrl, tensordict, gymnasium, numpy
     _run([str(python), "-m", "pip", "install", "--quiet", TORCH, str(wheel)], cwd=tmp_path, env=env)
 
     work = tmp_path / "user"
@@ -83,6 +85,17 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
     print(out)
     assert "torchrl_auv/DataCollection-v2 observation (76,)" in out
     assert "DataCollectionEnv rollout (2, 3)" in out
+    console = str(tmp_path / "venv" / "bin" / "torchrl-auv")
+    refused = subprocess.run(
+        [console, "train"], cwd=work, env=env, capture_output=True, text=True, timeout=300
+    )
+    assert refused.returncode == 2 and "pip install 'torchrl-auv[recipes]'" in refused.stderr
+    # then the recipes extra
+    _run(
+        [str(python), "-m", "pip", "install", "--quiet", TORCH, f"{wheel}[recipes]"],
+        cwd=tmp_path,
+        env=env,
+    )
 
     out = _run(
         [
@@ -100,9 +113,7 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
 
     job = Job("diffusion_lac", "ideal", "s_surface", 0)
     overrides = job.overrides("quick", root=work, frames=400)
-    out = _run(
-        [str(tmp_path / "venv" / "bin" / "torchrl-auv"), "train", *overrides], cwd=work, env=env
-    )
+    out = _run([console, "train", *overrides], cwd=work, env=env)
     summary = work / "jobs" / job.name / "summary.md"
     text = summary.read_text()
     print(text)

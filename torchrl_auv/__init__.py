@@ -1,7 +1,8 @@
 """torchrl-auv: TorchRL components for stable and robust control of AUVs.
 
 The package is layered; each layer imports only the layers listed before it (checked by
-``tests/test_package.py``):
+``tests/test_package.py``, which also checks that no two files import each other, directly
+or through others):
 
 * :mod:`torchrl_auv.physics`: the REMUS-100 6-DoF model (``docs/spec/remus100.md``), ocean
   sea states, acoustics and energy (plain batched torch, like the next three layers).
@@ -14,8 +15,10 @@ The package is layered; each layer imports only the layers listed before it (che
 * :mod:`torchrl_auv.objectives`: the Lyapunov actor-critic loss, the candidate selection and
   backups (modules).
 * :mod:`torchrl_auv.advisor`: the LLM / rule-based outer loop (objectives).
-* :mod:`torchrl_auv.training`: what the recipes build: envs, learners, collectors, runs,
-  evaluation (every layer above).
+* :mod:`torchrl_auv.evaluation`: held-out evaluation: episode statistics, reference policies,
+  the worker pool (envs, modules, objectives and below).
+* :mod:`torchrl_auv.training`: what the recipes build: envs, learners, collectors, runs
+  (every layer above).
 * :mod:`torchrl_auv.report` and :mod:`torchrl_auv.cli`: tables, figures and command-line tools
   (every layer).
 

@@ -25,8 +25,7 @@ def _lac_learner(env, compile_update: bool) -> training.Learner:
     cfg = OmegaConf.create(
         {
             "optim": optim,
-            "lyapunov": {"cost": "stability"},
-            "advisor": {"form": "softplus", "stability_weight": 0.1},
+            "lyapunov": {"form": "softplus", "stability_weight": 0.1, "cost": "stability"},
             "network": {"hidden": [16]},
         }
     )

@@ -81,7 +81,7 @@ def test_a_worker_ends_when_its_parent_is_killed():
         "import os, time\n"
         "from omegaconf import OmegaConf\n"
         "from torchrl_auv import training\n"
-        "from torchrl_auv.training.evaluation_pool import RowWorker\n"
+        "from torchrl_auv.evaluation import RowWorker\n"
         "if __name__ == '__main__':\n"
         "    cfg = OmegaConf.create({'env': {'sea_state': 'ideal', 'controller': 'pid',\n"
         "                                    'rate_model': 'shannon'}})\n"

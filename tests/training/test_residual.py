@@ -163,8 +163,7 @@ def test_lac_trains_the_residual_actor_with_its_constraint_on_the_executed_actio
     cfg.optim.update({"lambda_max": 1.0, "dual_lr": 1e-3})
     cfg.update(
         {
-            "advisor": {"form": "softplus", "stability_weight": 0.1},
-            "lyapunov": {"cost": "stability"},
+            "lyapunov": {"form": "softplus", "stability_weight": 0.1, "cost": "stability"},
         }
     )
     actor = training.make_residual_actor(env, (16,), bound=BOUND)

@@ -9,7 +9,7 @@ from tensordict import TensorDict
 
 from torchrl_auv import training
 from torchrl_auv.advisor import AdvisorTrigger, RuleBasedAdvisor
-from torchrl_auv.objectives import LyapunovSpec
+from torchrl_auv.objectives import LyapunovSpec, LyapunovSpecState
 
 
 @pytest.mark.parametrize(
@@ -22,7 +22,11 @@ from torchrl_auv.objectives import LyapunovSpec
         ({"collector": {"total_frames": 0}}, "collector.total_frames"),
         ({"collector": {"num_workers": 0}}, "collector.num_workers"),
         ({"advisor": {"backend": "oracle"}}, "advisor.backend"),
-        ({"advisor": {"form": "cubic"}}, "advisor.form"),
+        ({"lyapunov": {"form": "cubic"}}, "lyapunov.form"),
+        (
+            {"lyapunov": {"stability_weight": 0}},
+            "lyapunov.stability_weight must be a finite number > 0",
+        ),
         ({"replay_buffer": {"storage": "disk"}}, "replay_buffer.storage"),
         ({"eval": {"sea_states": ["ideal", "storm"]}}, "eval.sea_states"),
         ({"proposer": {"alone_replan_every": 0}}, "proposer.alone_replan_every"),
@@ -75,18 +79,18 @@ def test_the_replay_buffer_stores_only_what_the_losses_read():
 
 
 def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
-    class Loss(torch.nn.Module):  # anything with spec / set_lyapunov_spec
+    class Loss(torch.nn.Module):  # anything holding the spec as a LyapunovSpecState
         def __init__(self):
             super().__init__()
-            self.spec = LyapunovSpec()
+            self.spec_state = LyapunovSpecState()
 
         def set_lyapunov_spec(self, spec):
-            self.spec = spec
+            self.spec_state.spec = spec
 
     loss = Loss()
     trigger = AdvisorTrigger(RuleBasedAdvisor(), "task", log_path=tmp_path / "a.jsonl")
     progress = training.Progress()
-    modules = {"spec": training.SpecState(loss), "advisor": trigger}
+    modules = {"loss": loss, "advisor": trigger}
     ckpt, rotation = training.make_checkpoint(tmp_path, modules=modules, progress=progress)
     loss.set_lyapunov_spec(LyapunovSpec(form="log", alpha=0.05))
     trigger.load_state_dict({"last_frame": 300})
@@ -98,11 +102,11 @@ def test_spec_and_advisor_state_survive_a_checkpoint(tmp_path):
     fresh_progress = training.Progress()
     ckpt2, _ = training.make_checkpoint(
         tmp_path,
-        modules={"spec": training.SpecState(fresh_loss), "advisor": fresh},
+        modules={"loss": fresh_loss, "advisor": fresh},
         progress=fresh_progress,
     )
     assert training.resume_latest(tmp_path, ckpt2, fresh_progress)[0] == 400
-    assert (fresh_loss.spec.form, fresh_loss.spec.alpha) == ("log", 0.05)
+    assert (fresh_loss.spec_state.spec.form, fresh_loss.spec_state.spec.alpha) == ("log", 0.05)
     # the cooldown runs on from the restored consultation frame: no "start" consultation
     assert fresh.reason(400, None) is None and fresh.state_dict()["last_frame"] == 300
 
@@ -118,14 +122,14 @@ def test_the_loss_owns_the_spec_the_selector_and_a_resumed_run_follow(tmp_path):
         proposer, critic, mode="lyapunov", loss=loss, critic_out_key=training.LYAPUNOV_RAW
     )
     selector = policy[-1]
-    assert selector.spec == loss.spec
+    assert selector.spec == loss.spec and selector.spec_state is loss.spec_state
     loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))  # an advisor's step
     assert (selector.spec.form, selector.spec.alpha) == ("squared", 0.25)
-    assert selector.spec_code[0] != 0  # the buffer the workers receive with the weights
+    # the buffer the workers receive with the weights
+    assert "spec_state.code" in dict(selector.named_buffers())
+    assert selector.state_dict()["spec_state.code"][0] != 0
     progress = training.Progress()
-    ckpt, rotation = training.make_checkpoint(
-        tmp_path, modules={"spec": training.SpecState(loss)}, progress=progress
-    )
+    ckpt, rotation = training.make_checkpoint(tmp_path, modules={"loss": loss}, progress=progress)
     rotation.save(ckpt, step=0)
     loss.set_lyapunov_spec(LyapunovSpec(form="log", alpha=0.5))
     training.resume_latest(tmp_path, ckpt, progress)
@@ -442,3 +446,18 @@ def test_an_unreachable_advisor_endpoint_is_refused_before_any_work():
         server.shutdown()
         server.server_close()
     training.check_config({"advisor": {"backend": "rules", "base_url": "http://127.0.0.1:1"}})
+
+
+def test_a_loss_state_saved_before_the_spec_was_in_it_loads_and_keeps_the_spec_in_force():
+    env = training.make_env("ideal", seed=0, num_envs=1, max_steps=2)
+    loss = training.make_lac_loss(
+        training.make_actor(env, (8,)), training.make_lyapunov_critic(env, (8,)), env
+    )
+    older = {k: v for k, v in loss.state_dict().items() if not k.startswith("spec_state.")}
+    loss.set_lyapunov_spec(LyapunovSpec(form="log", alpha=0.3))
+    loss.load_state_dict(older)  # strict: no missing key reported for the spec
+    assert (loss.spec.form, loss.spec.alpha) == ("log", 0.3)
+    newer = {k: v.clone() for k, v in loss.state_dict().items()}  # as saved: a copy
+    loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.05))
+    loss.load_state_dict(newer)
+    assert (loss.spec.form, loss.spec.alpha) == ("log", 0.3)

@@ -7,7 +7,7 @@ out for one episode per scene on held-out scenes and prints, per sea state, the 
 cost (per AUV-decision and discounted from reset, each with its standard error over scenes),
 then whether the cost ranks the policies as the mission does (:func:`card_checks`).
 ``--all-columns`` prints every statistic of
-:func:`~torchrl_auv.training.evaluation.episode_stats` instead (cost shares, tracking,
+:func:`~torchrl_auv.evaluation.episode_stats` instead (cost shares, tracking,
 localisation).
 
 The card's default scenes (``--seed 7000000``, 16 per sea state) were never used to choose a
@@ -25,7 +25,7 @@ from collections.abc import Sequence
 import torch
 
 from torchrl_auv.envs import DataCollectionEnv
-from torchrl_auv.training.evaluation import POLICIES, evaluate, make_policy
+from torchrl_auv.evaluation import POLICIES, evaluate, make_policy
 
 __all__ = ["CARD_POLICIES", "CARD_SEED", "card_checks", "main"]
 

@@ -25,6 +25,7 @@ True
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import sys
 from collections.abc import Sequence
@@ -32,7 +33,14 @@ from pathlib import Path
 
 import torchrl_auv
 
-__all__ = ["COMMANDS", "command_line", "main", "recipes_dir"]
+__all__ = [
+    "COMMANDS",
+    "RECIPE_PACKAGES",
+    "command_line",
+    "main",
+    "missing_recipe_packages",
+    "recipes_dir",
+]
 
 #: command -> (script under the recipes folder, what it is for)
 COMMANDS = {
@@ -57,6 +65,24 @@ def recipes_dir() -> Path:
     raise FileNotFoundError(
         f"no recipes folder with train.py in {package / 'recipes'} or "
         f"{package.parent / 'recipes'}: reinstall torchrl-auv"
+    )
+
+
+#: what the recipe scripts import beyond the core package: import name -> distribution
+RECIPE_PACKAGES = {
+    "hydra": "hydra-core",
+    "omegaconf": "hydra-core",
+    "tqdm": "tqdm",
+    "wandb": "wandb",
+    "matplotlib": "matplotlib",
+}
+
+
+def missing_recipe_packages() -> list[str]:
+    """The distributions of :data:`RECIPE_PACKAGES` that cannot be imported (sorted; empty
+    with the ``recipes`` extra installed)."""
+    return sorted(
+        {dist for name, dist in RECIPE_PACKAGES.items() if importlib.util.find_spec(name) is None}
     )
 
 
@@ -106,6 +132,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     except ValueError as error:
         print(f"torchrl-auv: {error}\n\n{_usage()}", file=sys.stderr)
         raise SystemExit(2) from None
+    missing = missing_recipe_packages()
+    if missing:
+        print(
+            f"torchrl-auv: the recipes need the recipes extra: pip install "
+            f"'torchrl-auv[recipes]' (missing: {', '.join(missing)})",
+            file=sys.stderr,
+        )
+        raise SystemExit(2)
     sys.stdout.flush()
     os.execv(sys.executable, [sys.executable, *line])
 

@@ -18,6 +18,13 @@ from torchrl.envs import EnvBase
 
 from torchrl_auv import iout
 from torchrl_auv.envs.device import on_env_device, step_on_cpu
+from torchrl_auv.envs.keys import (
+    AGENT_ACTION,
+    AGENT_COST,
+    AGENT_OBSERVATION,
+    AGENT_STABILITY_COST,
+    AGENTS,
+)
 from torchrl_auv.envs.specs import (
     checked_action,
     checked_batch_size,
@@ -318,12 +325,12 @@ class DataCollectionEnv(EnvBase):
     @property
     def observation_key(self) -> tuple[str, ...] | str:
         """Where policies read: ``("agents", "observation")``, or ``"observation"`` if flat."""
-        return "observation" if self.flatten_agents else ("agents", "observation")
+        return "observation" if self.flatten_agents else AGENT_OBSERVATION
 
     @property
     def agent_action_key(self) -> tuple[str, ...] | str:
         """Where policies write: ``("agents", "action")``, or ``"action"`` if flat."""
-        return "action" if self.flatten_agents else ("agents", "action")
+        return "action" if self.flatten_agents else AGENT_ACTION
 
     @property
     def cost_keys(self) -> list[tuple[str, ...] | str]:
@@ -332,8 +339,9 @@ class DataCollectionEnv(EnvBase):
         reset, then the last decision's), not reward keys, so that ``env.reward_key`` is the one
         reward through every wrapper. To rescale the reward together with the cost the
         Lyapunov loss reads: ``RewardScaling(0.0, s, in_keys=[env.reward_key, *env.cost_keys])``."""
-        prefix = () if self.flatten_agents else ("agents",)
-        return [(*prefix, k) if prefix else k for k in ("cost", "stability_cost")]
+        if self.flatten_agents:
+            return ["cost", "stability_cost"]
+        return [AGENT_COST, AGENT_STABILITY_COST]
 
     @property
     def n_agents(self) -> int:
@@ -346,7 +354,7 @@ class DataCollectionEnv(EnvBase):
         convention); the flat layout is one agent, ``{"agent": ["agent"]}``."""
         if self.flatten_agents:
             return {"agent": ["agent"]}
-        return {"agents": [f"auv_{i}" for i in range(self.num_auvs)]}
+        return {AGENTS: [f"auv_{i}" for i in range(self.num_auvs)]}
 
     # -- specs ---------------------------------------------------------------------------
     def _make_specs(self) -> None:

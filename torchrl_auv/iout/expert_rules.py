@@ -20,7 +20,7 @@ shifted inside the area (:func:`point_steered_for`). All functions are batched o
 
 Examples:
     >>> import torch
-    >>> from torchrl_auv.iout.expert import ExpertConfig
+    >>> from torchrl_auv.iout.expert_config import ExpertConfig
     >>> pose = torch.zeros(1, 1, 6)
     >>> view = ExpertView.of(pose, torch.tensor([[[0.0, 50.0, 40.0]]]), ExpertConfig())
     >>> view.goal_dir.tolist()  # the target is due east
@@ -34,15 +34,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import torch
 
 from torchrl_auv.iout.approach import approach_direction, unit
 from torchrl_auv.iout.dubins import WORDS, dubins_lengths, dubins_points
-
-if TYPE_CHECKING:
-    from torchrl_auv.iout.expert import ExpertConfig
+from torchrl_auv.iout.expert_config import ExpertConfig
 
 __all__ = [
     "HEADING_RULES",

@@ -10,7 +10,13 @@ from __future__ import annotations
 from torchrl_auv.objectives.candidate_backup import BACKUPS, CandidateBackupSACLoss
 from torchrl_auv.objectives.denoising import DenoisingLoss
 from torchrl_auv.objectives.lyapunov import MODES, LyapunovActorCriticLoss
-from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
+from torchrl_auv.objectives.lyapunov_forms import (
+    FORMS,
+    PRIORS,
+    LyapunovSpec,
+    LyapunovSpecState,
+    lyapunov_value,
+)
 from torchrl_auv.objectives.pretraining import (
     LR_SCHEDULES,
     PretrainResult,
@@ -41,6 +47,7 @@ __all__ = [
     "DenoisingLoss",
     "LyapunovActorCriticLoss",
     "LyapunovSpec",
+    "LyapunovSpecState",
     "PretrainResult",
     "QEnsembleCritic",
     "ResidualLACLoss",

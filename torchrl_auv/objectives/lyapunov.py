@@ -71,7 +71,12 @@ from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import ValueEstimators
 
 from torchrl_auv.objectives.candidate_backup import check_backup, next_candidates, per_candidate
-from torchrl_auv.objectives.lyapunov_forms import FORMS, LyapunovSpec, lyapunov_value
+from torchrl_auv.objectives.lyapunov_forms import (
+    FORMS,
+    LyapunovSpec,
+    LyapunovSpecState,
+    lyapunov_value,
+)
 from torchrl_auv.objectives.selection_rule import SelectionRule
 
 __all__ = ["LOSS_FUNCTIONS", "MODES", "LyapunovActorCriticLoss"]
@@ -239,8 +244,10 @@ class LyapunovActorCriticLoss(LossModule):
             self.convert_to_functional(qvalue_network, "qvalue_network", create_target_params=True)
         else:
             self.qvalue_network = None
-        self._spec_readers: list = []  # modules whose ``spec`` follows this loss's (share_spec)
-        self.spec = spec if spec is not None else LyapunovSpec(form=form, alpha=stability_weight)
+        # the one spec object; the selectors share it (share_spec); in the state dict
+        self.spec_state = LyapunovSpecState(
+            spec if spec is not None else LyapunovSpec(form=form, alpha=stability_weight)
+        )
         self.mode, self.loss_function = mode, loss_function
         self.lambda_max = float(lambda_max)
         self.log_lambda = torch.nn.Parameter(torch.tensor(float(lambda_init)).log())
@@ -255,18 +262,15 @@ class LyapunovActorCriticLoss(LossModule):
     # -- configuration ---------------------------------------------------------------------
     @property
     def spec(self) -> LyapunovSpec:
-        """The Lyapunov form, prior and stability weight in force. This loss owns it: assigning
-        it (or :meth:`set_lyapunov_spec`) also sets it on every module given to
-        :meth:`share_spec`."""
-        return self._spec
+        """The Lyapunov form, prior and stability weight in force: :attr:`spec_state`'s (a
+        :class:`~torchrl_auv.objectives.LyapunovSpecState`, in this loss's state dict, so a
+        checkpoint of the loss restores it). Assigning it (or :meth:`set_lyapunov_spec`)
+        sets it for every module given to :meth:`share_spec` too: they hold the same object."""
+        return self.spec_state.spec
 
     @spec.setter
     def spec(self, value: LyapunovSpec) -> None:
-        if not isinstance(value, LyapunovSpec):
-            raise ValueError(f"spec must be a LyapunovSpec, got {type(value).__name__}")
-        self._spec = value
-        for reader in self._spec_readers:
-            reader.spec = value
+        self.spec_state.spec = value
 
     def set_lyapunov_spec(self, spec: LyapunovSpec) -> None:
         """Switch the form, prior and stability weight; parameters, dual variables and any
@@ -275,9 +279,9 @@ class LyapunovActorCriticLoss(LossModule):
         self.spec = spec
 
     def share_spec(self, reader):
-        """Make ``reader.spec`` (e.g. a :class:`~torchrl_auv.objectives.CandidateSelector`
-        ranking with this loss's critic) follow this loss's spec: set now and whenever the
-        spec changes (an advisor's step, a checkpoint's). Returns ``reader``.
+        """Make ``reader`` (e.g. a :class:`~torchrl_auv.objectives.CandidateSelector` ranking
+        with this loss's critic) hold this loss's :attr:`spec_state`: the same object, so an
+        advisor's or a checkpoint's spec is the reader's too. Returns ``reader``.
 
         Examples:
             >>> from torchrl_auv.objectives import CandidateSelector
@@ -287,13 +291,14 @@ class LyapunovActorCriticLoss(LossModule):
             >>> loss = LyapunovActorCriticLoss(make_actor(env, (8,)), critic)
             >>> selector = loss.share_spec(CandidateSelector(critic, mode="lyapunov"))
             >>> loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.25))
-            >>> selector.spec.form, selector.spec.alpha
-            ('squared', 0.25)
+            >>> selector.spec.form, selector.spec.alpha, selector.spec_state is loss.spec_state
+            ('squared', 0.25, True)
         """
-        if not hasattr(reader, "spec"):
-            raise ValueError(f"reader must have a spec attribute, got {type(reader).__name__}")
-        self._spec_readers.append(reader)
-        reader.spec = self._spec
+        if not isinstance(getattr(reader, "spec_state", None), LyapunovSpecState):
+            raise ValueError(
+                f"reader must hold a LyapunovSpecState as spec_state, got {type(reader).__name__}"
+            )
+        reader.spec_state = self.spec_state
         return reader
 
     def make_value_estimator(self, value_type: ValueEstimators = None, **hyperparams):
@@ -379,8 +384,9 @@ class LyapunovActorCriticLoss(LossModule):
                 "lyapunov_network",
                 self.lyapunov_network,
             )
-        observation = td.get(self.tensor_keys.observation, None) if self.spec.prior else None
-        return lyapunov_value(raw, self.spec, observation)
+        spec = self.spec_state.last_set  # no tensor read: the update may be compiled
+        observation = td.get(self.tensor_keys.observation, None) if spec.prior else None
+        return lyapunov_value(raw, spec, observation)
 
     def _qvalue(self, td: TensorDictBase, action: torch.Tensor, params) -> torch.Tensor:
         """The task critic's ``Q(s, action)`` ``[*B, 1]`` with ``params``."""
@@ -479,7 +485,7 @@ class LyapunovActorCriticLoss(LossModule):
             after = self._lyapunov(next_td, policy_next, frozen_critic)
         else:
             after = self._lyapunov(td, new_action, frozen_critic)
-        delta = after - value.detach() + self.spec.alpha * cost
+        delta = after - value.detach() + self.spec_state.last_set.alpha * cost
         loss_actor = self.lambda_.detach() * delta.mean() + self.beta.detach() * log_prob.mean()
         task = {}
         if self.qvalue_network is not None:  # the task: a Q critic on task_cost

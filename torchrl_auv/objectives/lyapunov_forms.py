@@ -17,13 +17,14 @@ name           :math:`L` from :math:`z`               behaviour (paper §IV, Fig
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import torch
 
-__all__ = ["FORMS", "PRIORS", "LyapunovSpec", "lyapunov_value"]
+__all__ = ["FORMS", "PRIORS", "LyapunovSpec", "LyapunovSpecState", "lyapunov_value"]
 
 #: form name -> one-line description (also used in the advisor's prompt)
 FORMS: dict[str, str] = {
@@ -85,6 +86,93 @@ class LyapunovSpec:
             raise ValueError(f"prior_weight must be >= 0, got {self.prior_weight}")
         if self.prior is not None and self.prior not in self.prior_indices:
             raise ValueError(f"prior_indices must name the entries of prior {self.prior!r}")
+
+
+_FORM_NAMES, _PRIOR_NAMES = sorted(FORMS), sorted(PRIORS)
+
+
+def _encode(spec: LyapunovSpec, device: torch.device | str | None = None) -> torch.Tensor:
+    """``[form index, prior index (-1: none), alpha, prior weight]`` (float64, on ``device``)."""
+    prior = -1 if spec.prior is None else _PRIOR_NAMES.index(spec.prior)
+    return torch.tensor(
+        [_FORM_NAMES.index(spec.form), prior, spec.alpha, spec.prior_weight],
+        dtype=torch.float64,
+        device=device,
+    )
+
+
+def _decode(code: torch.Tensor, like: LyapunovSpec) -> LyapunovSpec:
+    """The spec of ``code`` (:func:`_encode`), the other fields (prior indices) from ``like``."""
+    form, prior, alpha, weight = code.tolist()
+    return dataclasses.replace(
+        like,
+        form=_FORM_NAMES[int(form)],
+        alpha=alpha,
+        prior=None if prior < 0 else _PRIOR_NAMES[int(prior)],
+        prior_weight=weight,
+    )
+
+
+class LyapunovSpecState(torch.nn.Module):
+    """The Lyapunov spec in force, as one module that the loss owning it and every selector
+    ranking with it hold (the same object: setting it once sets it for all).
+
+    Its form, prior, alpha and prior weight are the float64 buffer ``code``, so the spec is
+    part of the state dict of every module holding it: it is saved and restored with the
+    loss's weights (a checkpoint), and travels with the policy's weights to collector worker
+    processes and Ray actors, whose copies follow the buffer when it is overwritten in place.
+    The prior's observation indices are not in the buffer: they stay the constructor's.
+
+    Examples:
+        >>> state = LyapunovSpecState(LyapunovSpec(form="log", alpha=0.2))
+        >>> state.spec = LyapunovSpec(form="squared", alpha=0.25)
+        >>> copy = LyapunovSpecState()
+        >>> _ = copy.load_state_dict(state.state_dict())
+        >>> copy.spec.form, copy.spec.alpha
+        ('squared', 0.25)
+        >>> other = LyapunovSpecState(LyapunovSpec(form="log", alpha=0.3))
+        >>> _ = copy.code.copy_(other.code)  # overwritten in place, as a collector does
+        >>> copy.spec.form, copy.spec.alpha
+        ('log', 0.3)
+    """
+
+    def __init__(self, spec: LyapunovSpec | None = None) -> None:
+        super().__init__()
+        spec = LyapunovSpec() if spec is None else spec
+        self._check(spec)
+        self._spec = spec
+        self.register_buffer("code", _encode(spec))
+
+    @staticmethod
+    def _check(spec) -> None:
+        if not isinstance(spec, LyapunovSpec):
+            raise ValueError(f"spec must be a LyapunovSpec, got {type(spec).__name__}")
+
+    @property
+    def spec(self) -> LyapunovSpec:
+        """The spec of the buffer (decoded again only when the buffer changed)."""
+        if not torch.equal(self.code, _encode(self._spec, self.code.device)):
+            self._spec = _decode(self.code, self._spec)
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: LyapunovSpec) -> None:
+        self._check(value)
+        self._spec = value
+        with torch.no_grad():
+            self.code.copy_(_encode(value))
+
+    @property
+    def last_set(self) -> LyapunovSpec:
+        """The spec as last set or loaded, without reading the buffer (for code that
+        ``torch.compile`` traces: the loss's forward)."""
+        return self._spec
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs) -> None:
+        if prefix + "code" not in state_dict:  # a state saved before the spec was in it
+            return
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+        self._spec = _decode(self.code, self._spec)
 
 
 def lyapunov_value(

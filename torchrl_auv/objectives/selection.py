@@ -15,44 +15,17 @@ beats it by more than the critic ensemble's disagreement.
 
 from __future__ import annotations
 
-import dataclasses
-
 import torch
 from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
 from tensordict.nn import TensorDictModuleBase
 
 from torchrl_auv.modules.consensus import medoid_index
-from torchrl_auv.objectives.lyapunov_forms import FORMS, PRIORS, LyapunovSpec, lyapunov_value
+from torchrl_auv.objectives.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
 from torchrl_auv.objectives.selection_rule import SelectionRule
 
 __all__ = ["SELECTION_MODES", "CandidateSelector"]
 
 SELECTION_MODES = ("q", "lyapunov")
-
-
-_FORM_NAMES, _PRIOR_NAMES = sorted(FORMS), sorted(PRIORS)
-
-
-def _encode(spec: LyapunovSpec, device: torch.device | str | None = None) -> torch.Tensor:
-    """``[form index, prior index (-1: none), alpha, prior weight]`` (float64, on ``device``)."""
-    prior = -1 if spec.prior is None else _PRIOR_NAMES.index(spec.prior)
-    return torch.tensor(
-        [_FORM_NAMES.index(spec.form), prior, spec.alpha, spec.prior_weight],
-        dtype=torch.float64,
-        device=device,
-    )
-
-
-def _decode(code: torch.Tensor, like: LyapunovSpec) -> LyapunovSpec:
-    """The spec of ``code`` (:func:`_encode`), the other fields (prior indices) from ``like``."""
-    form, prior, alpha, weight = code.tolist()
-    return dataclasses.replace(
-        like,
-        form=_FORM_NAMES[int(form)],
-        alpha=alpha,
-        prior=None if prior < 0 else _PRIOR_NAMES[int(prior)],
-        prior_weight=weight,
-    )
 
 
 class CandidateSelector(TensorDictModuleBase):
@@ -127,10 +100,10 @@ class CandidateSelector(TensorDictModuleBase):
         if not 0 <= epsilon <= 1:
             raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
         self.critic = critic
-        # the spec's form, prior and weights as a buffer: it travels with the weights that
-        # TorchRL's collectors copy to worker processes and Ray actors
-        self.register_buffer("spec_code", torch.zeros(4, dtype=torch.float64))
-        self.mode, self.spec = mode, spec or LyapunovSpec()
+        # the spec as a buffer module (shared with the loss that owns it, share_spec): it
+        # travels with the weights TorchRL's collectors copy to worker processes and Ray actors
+        self.spec_state = LyapunovSpecState(spec)
+        self.mode = mode
         self.exploration, self.temperature, self.epsilon = exploration, temperature, epsilon
         self.include_actor_action = include_actor_action
         self.generator = generator
@@ -154,9 +127,10 @@ class CandidateSelector(TensorDictModuleBase):
 
     @property
     def spec(self) -> LyapunovSpec:
-        """The Lyapunov form (mode ``"lyapunov"``). Its form, prior, alpha and prior weight are
-        mirrored in the buffer ``spec_code``; a copy whose buffer was overwritten (weights
-        loaded, or synced by a collector) follows the buffer.
+        """The Lyapunov form (mode ``"lyapunov"``): :attr:`spec_state`'s, a
+        :class:`~torchrl_auv.objectives.LyapunovSpecState` (the loss's own when shared with
+        :meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.share_spec`). A copy whose
+        weights were loaded, or synced by a collector, follows them.
 
         Examples:
             >>> from torchrl.modules import MLP, ValueOperator
@@ -168,15 +142,11 @@ class CandidateSelector(TensorDictModuleBase):
             >>> b.spec.form, b.spec.alpha
             ('squared', 0.25)
         """
-        if not torch.equal(self.spec_code, _encode(self._spec, self.spec_code.device)):
-            self._spec = _decode(self.spec_code, self._spec)
-        return self._spec
+        return self.spec_state.spec
 
     @spec.setter
     def spec(self, value: LyapunovSpec) -> None:
-        self._spec = value
-        with torch.no_grad():
-            self.spec_code.copy_(_encode(value))
+        self.spec_state.spec = value
 
     def scores(self, observation: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """Scores ``[*B, K]`` (higher is better) of first actions ``[*B, K, A]``."""

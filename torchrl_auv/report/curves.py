@@ -7,6 +7,8 @@ from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
 
+from torchrl_auv.report.pyplot import pyplot
+
 __all__ = ["plot_learning_curve", "read_curve"]
 
 DEFAULT_KEYS = (
@@ -53,10 +55,7 @@ def plot_learning_curve(
         or offline_frames < 0
     ):
         raise ValueError(f"offline_frames must be an integer >= 0, got {offline_frames!r}")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     curves = read_curve(path)
     present = [k for k in keys if k in curves] or sorted(curves)[:4]

@@ -7,6 +7,8 @@ from pathlib import Path
 import torch
 from tensordict import TensorDictBase
 
+from torchrl_auv.report.pyplot import pyplot
+
 __all__ = ["plot_episode"]
 
 
@@ -34,10 +36,7 @@ def plot_episode(rollout: TensorDictBase, path: str | Path, *, index: int = 0) -
     >>> plot_episode(td, tempfile.mkdtemp() + "/fleet.png").suffix
     '.png'
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     nxt = rollout["next"]
     if "sim" in nxt.keys():  # DataCollectionEnv keeps its simulator state under "sim"

@@ -9,6 +9,7 @@ from pathlib import Path
 import torch
 
 from torchrl_auv.envs.tracking import DEPTH_STEP, HEADING_STEP, RPM_SCALE
+from torchrl_auv.report.pyplot import pyplot
 
 __all__ = ["plot_candidate_stages", "plot_pretraining_loss", "setpoint_paths"]
 
@@ -47,10 +48,7 @@ def plot_pretraining_loss(
     >>> plot_pretraining_loss([1, 2, 3], [1.0, 0.5, 0.3], tempfile.mkdtemp() + "/loss.png").suffix
     '.png'
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(list(steps), list(losses), label="training")
@@ -100,10 +98,7 @@ def plot_candidate_stages(
     >>> plot_candidate_stages(torch.rand(3, 5, 8, 3) * 2 - 1, tempfile.mkdtemp() + "/c.png").suffix
     '.png'
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     if stages.dim() != 4 or stages.shape[-1] != 3:
         raise ValueError(f"stages must be shaped [S, K, H, 3], got {tuple(stages.shape)}")

@@ -29,6 +29,7 @@ from torchrl_auv.estimation import (
 )
 from torchrl_auv.physics import ocean
 from torchrl_auv.physics.remus100 import rotation_matrix
+from torchrl_auv.report.pyplot import pyplot
 
 __all__ = ["KalmanObserver", "plot_tracking", "tracking_table"]
 
@@ -179,10 +180,7 @@ def tracking_table(
 
 def plot_tracking(traces: dict[tuple[str, str], Trace], sea_state: str, path: str | Path) -> Path:
     """Depth and heading of the first run of each controller against the setpoints (PNG)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, (ax_z, ax_psi) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     first = True

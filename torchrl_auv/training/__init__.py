@@ -23,15 +23,30 @@ module                      builds
 ``progress``                :class:`Progress`, the run's counters (frames, updates)
 ``tracking``                the loop's bookkeeping: metrics, progress bar, learning curve
 ``episode_video``           one held-out episode as top-view frames and an mp4 (eval.video_steps)
-``evaluation``              held-out evaluation of policies (the task's metrics)
+(re-exported)               held-out evaluation (:mod:`torchrl_auv.evaluation`, its own layer)
 ==========================  ========================================================================
 
 ``recipes/<name>/train.py`` are short scripts composed from these pieces (the loop written
 out, as in TorchRL's sota-implementations); copy one and swap a piece to build your own.
+
+This layer needs the ``recipes`` extra (hydra-core, tqdm; ``pip install
+'torchrl-auv[recipes]'``): importing it without says so.
 """
 
 from __future__ import annotations
 
+from torchrl_auv.evaluation import (
+    POLICIES,
+    SameRowAs,
+    episode_stats,
+    evaluate,
+    exit_policy,
+    expert_policy,
+    make_policy,
+    random_policy,
+    reference_policies,
+)
+from torchrl_auv.training._extra import RECIPES_PACKAGES  # first: names the extra if missing
 from torchrl_auv.training.artefacts import ArtefactCache, values_key
 from torchrl_auv.training.candidates import (
     CANDIDATE_KEYS,
@@ -47,7 +62,6 @@ from torchrl_auv.training.candidates import (
 )
 from torchrl_auv.training.checkpointing import (
     ProgressState,
-    SpecState,
     make_checkpoint,
     resume_latest,
 )
@@ -75,17 +89,6 @@ from torchrl_auv.training.env import (
     make_history_env,
 )
 from torchrl_auv.training.episode_video import episode_frames, write_episode_video
-from torchrl_auv.training.evaluation import (
-    POLICIES,
-    SameRowAs,
-    episode_stats,
-    evaluate,
-    exit_policy,
-    expert_policy,
-    make_policy,
-    random_policy,
-    reference_policies,
-)
 from torchrl_auv.training.first_stage import (
     FIRST_STAGE_VERSION,
     FirstStage,
@@ -202,6 +205,7 @@ __all__ = [
     "POLICIES",
     "PRIOR_ACTION",
     "Q_VALUE",
+    "RECIPES_PACKAGES",
     "REPLAY_KEYS",
     "RESIDUAL_KEYS",
     "SAC_LOGGED_KEYS",
@@ -218,7 +222,6 @@ __all__ = [
     "RunFolderInUse",
     "RunTracker",
     "SameRowAs",
-    "SpecState",
     "VerifiedRotation",
     "acting_actor",
     "advisor_from_config",

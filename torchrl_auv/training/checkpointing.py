@@ -38,7 +38,7 @@ from torchrl_auv.training.verified_rotation import (
     checkpoint_problems,
 )
 
-__all__ = ["ProgressState", "SpecState", "make_checkpoint", "resume_latest"]
+__all__ = ["ProgressState", "make_checkpoint", "resume_latest"]
 
 
 class ProgressState:
@@ -114,30 +114,3 @@ def resume_latest(
     except Exception as error:  # a legacy checkpoint without checksums may still be damaged
         raise CheckpointError(f"checkpoint {intact} could not be loaded: {error}") from error
     return int(progress.frames), dict(result.values)
-
-
-class SpecState:
-    """The Lyapunov spec in force (``loss.spec``, which an advisor may have changed) as a
-    checkpoint component: ``load_state_dict`` applies it with ``loss.set_lyapunov_spec``."""
-
-    def __init__(self, loss) -> None:
-        self.loss = loss
-
-    def state_dict(self) -> dict:
-        spec = self.loss.spec
-        return {
-            "form": spec.form,
-            "prior": spec.prior or "",
-            "alpha": float(spec.alpha),
-            "prior_weight": float(spec.prior_weight),
-        }
-
-    def load_state_dict(self, state: Mapping) -> None:
-        spec = dataclasses.replace(
-            self.loss.spec,
-            form=state["form"],
-            prior=state["prior"] or None,
-            alpha=state["alpha"],
-            prior_weight=state["prior_weight"],
-        )
-        self.loss.set_lyapunov_spec(spec)

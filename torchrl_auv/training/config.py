@@ -9,6 +9,8 @@ Examples:
 
 from __future__ import annotations
 
+import importlib.util
+import math
 import warnings
 from collections.abc import Mapping
 
@@ -70,7 +72,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "logger.backend": LOGGER_BACKENDS,
         "replay_buffer.storage": ("memory", "memmap"),
         "advisor.backend": ("rules", "fixed", "openai"),
-        "advisor.form": tuple(sorted(FORMS)),
+        "lyapunov.form": tuple(sorted(FORMS)),
         "device": ("cpu", "cuda"),
         "proposer.sampler": SAMPLERS,
         "proposer.alone_pick": CANDIDATE_PICKS,
@@ -121,6 +123,13 @@ def check_choices(cfg: Mapping) -> None:
     residual = _get(cfg, "residual")
     if isinstance(residual, Mapping):
         check_residual(residual, _get(cfg, "proposer.alone_replan_every"))
+    weight = _get(cfg, "lyapunov.stability_weight")
+    if weight is not None and (
+        isinstance(weight, bool)
+        or not isinstance(weight, int | float)
+        or not (weight > 0 and math.isfinite(weight))
+    ):
+        raise ValueError(f"lyapunov.stability_weight must be a finite number > 0, got {weight!r}")
     finetune = _get(cfg, "finetune")
     if isinstance(finetune, Mapping):
         check_finetune(finetune)
@@ -188,6 +197,11 @@ def check_config(cfg: Mapping) -> None:
     and ``collector.ray_address`` (else ``RAY_ADDRESS``) answers: what a recipe checks before
     any work, and a sweep before its first job."""
     check_choices(cfg)
+    if _get(cfg, "logger.backend") == "wandb" and importlib.util.find_spec("wandb") is None:
+        raise ValueError(
+            "logger.backend='wandb' needs wandb: pip install 'torchrl-auv[recipes]', "
+            "or logger.backend=csv (or empty: no logger)"
+        )
     if _get(cfg, "collector.backend") == "ray":
         check_ray_backend(_get(cfg, "collector.ray_address"))
     if _get(cfg, "advisor.backend") == "openai":

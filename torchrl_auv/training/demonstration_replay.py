@@ -28,9 +28,9 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.data import LazyTensorStorage, ReplayBufferEnsemble, TensorDictReplayBuffer
 
+from torchrl_auv.evaluation import expert_policy
 from torchrl_auv.training.collectors import make_collector
 from torchrl_auv.training.env import env_factory
-from torchrl_auv.training.evaluation import expert_policy
 from torchrl_auv.training.replay import select_for_replay
 
 __all__ = [

@@ -24,7 +24,7 @@ from torchrl.record.loggers.wandb import WandbLogger
 
 from torchrl_auv.envs import SIM_KEY
 from torchrl_auv.envs.render import top_view
-from torchrl_auv.training.evaluation import _first_episode
+from torchrl_auv.evaluation import first_episode
 
 __all__ = ["FPS", "episode_frames", "write_episode_video"]
 
@@ -41,7 +41,7 @@ def episode_frames(env, policy, steps: int, *, size: int = 400) -> np.ndarray:
     with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
         rollout = env.rollout(steps, policy, break_when_all_done=True)
     rollout = rollout.reshape(-1, rollout.shape[-1]).cpu()
-    end = int(_first_episode(rollout)[0][0]) + 1  # the first scene's first episode
+    end = int(first_episode(rollout)[0][0]) + 1  # the first scene's first episode
     scene = rollout[0]
     states = [scene[0][SIM_KEY], *scene["next", SIM_KEY][:end].unbind(0)]
     positions = np.stack([s["truth", "eta"][:, :2].double().numpy() for s in states])

@@ -24,7 +24,6 @@ from torchrl.objectives import SoftUpdate
 
 from torchrl_auv import advisor as advisors
 from torchrl_auv.objectives import LyapunovActorCriticLoss, ResidualLACLoss, SelectionRule
-from torchrl_auv.training.checkpointing import SpecState
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
 from torchrl_auv.training.learner import Learner
 from torchrl_auv.training.networks import (
@@ -168,26 +167,26 @@ def lac_from_config(
     rule: SelectionRule | None = None,
 ) -> Learner:
     """The LAC learner of a recipe config: :func:`make_lac_loss` with ``cfg.optim`` (gamma,
-    lambda_max, the critics' loss function), ``cfg.advisor``'s initial form and stability
-    weight and ``cfg.lyapunov.cost``; a ``SoftUpdate`` of ``cfg.optim.tau`` (made before the
-    loss's first forward, as TorchRL requires); :func:`lac_optimisers`; logging
+    lambda_max, the critics' loss function), ``cfg.lyapunov``'s form, stability weight (before
+    an advisor's first consultation) and cost; a ``SoftUpdate`` of ``cfg.optim.tau`` (made
+    before the loss's first forward, as TorchRL requires); :func:`lac_optimisers`; logging
     :data:`LAC_LOGGED_KEYS`; ``cfg.optim.compile`` (absent: ``False``) compiles the update
     (:class:`~torchrl_auv.training.Learner`). ``critic`` is the Lyapunov critic the selector
     ranks with too (the task critic takes ``cfg.network.layer_norm``, absent: off);
     ``cfg.selection.backup`` (absent: ``actor``) with the selector's ``rule`` is what the
     critics bootstrap on; with ``cfg.residual.bound > 0`` ``actor`` is a residual actor held
     near the prior with ``cfg.residual.coef`` (the backup then on the actor, which acts)."""
-    optim, advisor = cfg["optim"], cfg["advisor"]
+    optim, lyapunov = cfg["optim"], cfg["lyapunov"]
     loss = make_lac_loss(
         actor,
         critic,
         env,
         gamma=optim["gamma"],
-        form=advisor["form"],
-        stability_weight=advisor["stability_weight"],
+        form=lyapunov["form"],
+        stability_weight=lyapunov["stability_weight"],
         lambda_max=optim["lambda_max"],
         loss_function=optim["loss_function"],
-        cost=cfg["lyapunov"]["cost"],
+        cost=lyapunov["cost"],
         hidden=cfg["network"]["hidden"],
         layer_norm=critic_layer_norm(cfg),
         rule=rule,
@@ -246,8 +245,8 @@ class AdvisorLoop:
         self.outputs: list = []
 
     def checkpoint_modules(self) -> dict[str, object]:
-        """The spec in force (:class:`~torchrl_auv.training.SpecState`) and the trigger."""
-        return {"spec": SpecState(self.loss), "advisor": self.trigger}
+        """The trigger (the spec in force is in the loss's state dict, the learner's)."""
+        return {"advisor": self.trigger}
 
     def step(self, frames: int, data: TensorDictBase, out: TensorDictBase) -> dict[str, float]:
         """After a batch ``data`` whose last update returned ``out``; returns

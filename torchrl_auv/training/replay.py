@@ -16,6 +16,7 @@ from pathlib import Path
 from tensordict import TensorDictBase
 from torchrl.data import LazyMemmapStorage, LazyTensorStorage, TensorDictReplayBuffer
 
+from torchrl_auv.envs.keys import AGENT_COST, AGENT_REWARD, AGENT_STABILITY_COST
 from torchrl_auv.training.keys import ACTION, AGENTS, OBSERVATION
 
 __all__ = [
@@ -33,10 +34,7 @@ __all__ = [
 REPLAY_KEYS = (
     OBSERVATION,
     ACTION,
-    ("next", AGENTS, "observation"),
-    ("next", AGENTS, "reward"),
-    ("next", AGENTS, "cost"),
-    ("next", AGENTS, "stability_cost"),
+    *(("next", *key) for key in (OBSERVATION, AGENT_REWARD, AGENT_COST, AGENT_STABILITY_COST)),
     ("next", AGENTS, "done"),
     ("next", AGENTS, "terminated"),
 )

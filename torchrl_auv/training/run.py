@@ -35,11 +35,11 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 from torchrl.checkpoint import Checkpoint
 
+from torchrl_auv.evaluation import evaluate
 from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
 from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.env import held_out_env
 from torchrl_auv.training.episode_video import episode_frames, write_episode_video
-from torchrl_auv.training.evaluation import evaluate
 from torchrl_auv.training.learner import Learner
 from torchrl_auv.training.loggers import close_logger, log_metrics, logger_from_config
 from torchrl_auv.training.progress import Progress

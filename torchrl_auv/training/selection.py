@@ -23,9 +23,9 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.modules import ProbabilisticActor
 
+from torchrl_auv.evaluation import SameRowAs, reference_policies
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, SelectionRule
-from torchrl_auv.training.evaluation import SameRowAs, reference_policies
 from torchrl_auv.training.keys import ACTION, ACTOR_ACTION, AGENTS, OBSERVATION
 from torchrl_auv.training.residual import residual_bound
 
@@ -142,7 +142,7 @@ def evaluation_policies(
     selector's ranking executed on its own (``OA`` = rank 0, ``CA1`` ... over the K candidates
     and, when the selector scores it, the actor's own action; ``ranks=False``: none of these,
     which cost one evaluation each; ``OA`` is the framework's own row when the actor's action
-    does not compete: :class:`~torchrl_auv.training.evaluation.SameRowAs`), the actor alone
+    does not compete: :class:`~torchrl_auv.evaluation.SameRowAs`), the actor alone
     (``RL``, with an ``actor``) and the proposer alone (:func:`proposer_alone` with ``pick``,
     ``alone_candidates`` and ``alone_replan_every``)."""
     alone = proposer_alone(

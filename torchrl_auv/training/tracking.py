@@ -23,9 +23,8 @@ import tqdm
 from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 
+from torchrl_auv.evaluation import RowWorker, evaluate
 from torchrl_auv.training.env import held_out_env
-from torchrl_auv.training.evaluation import evaluate
-from torchrl_auv.training.evaluation_pool import RowWorker
 from torchrl_auv.training.loggers import log_metrics, truncate_curve
 from torchrl_auv.training.summary import SUMMARY_COLUMNS
 

@@ -36,6 +36,7 @@ from torchrl_auv.report.paper.output import (
 )
 from torchrl_auv.report.paper.published import FIG8_RETURN_E3, FIG9
 from torchrl_auv.report.paper.tables import LABELS
+from torchrl_auv.report.pyplot import pyplot
 
 __all__ = [
     "fig4",
@@ -50,12 +51,7 @@ __all__ = [
 
 
 def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return pyplot()
 
 
 def _save(fig, path: Path) -> Path:

@@ -18,7 +18,7 @@ Examples:
     >>> len(jobs), jobs[0].name
     (24, 'diffusion/ideal/s_surface/seed0')
     >>> job = experiment_jobs("fig10", seeds=(0,))[0]
-    >>> job.name, job.values["advisor.stability_weight"]
+    >>> job.name, job.values["lyapunov.stability_weight"]
     ('diffusion_lac/ves/s_surface/fixed-softplus-alpha0.05/seed0', 0.05)
     >>> overrides = job.overrides("quick", root="/tmp/p")
     >>> "framework=diffusion_lac" in overrides, "preset=quick" in overrides
@@ -192,7 +192,7 @@ def _fixed(seeds: Sequence[int], form: str = FIXED_FORM, alpha: float = FIXED_AL
         ["s_surface"],
         seeds,
         f"fixed-{form}-alpha{alpha}",
-        **{"advisor.backend": "fixed", "advisor.form": form, "advisor.stability_weight": alpha},
+        **{"advisor.backend": "fixed", "lyapunov.form": form, "lyapunov.stability_weight": alpha},
     )
 
 

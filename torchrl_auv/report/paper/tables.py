@@ -145,7 +145,7 @@ def rate_models(
     presets') and with the paper's formula (``paper``); beside them the paper's Diffusion+RL
     (LAC), S-Surface numbers of Table II."""
     from torchrl_auv.envs import DataCollectionEnv
-    from torchrl_auv.training.evaluation import episode_stats, make_policy
+    from torchrl_auv.evaluation import episode_stats, make_policy
 
     rows = []
     for sea in seas:

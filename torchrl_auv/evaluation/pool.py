@@ -26,6 +26,7 @@ import torch
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from torchrl_auv.envs.processes import end_with_parent
+from torchrl_auv.evaluation.episodes import episode_stats
 
 __all__ = ["RowWorker", "evaluate_row", "evaluate_rows"]
 
@@ -46,8 +47,6 @@ def evaluate_row(
     seed)`` rolled out for ``steps`` decisions with
     deterministic actions, torch's global generator seeded with ``seed`` (forked: restored
     after), ``tick()`` after every decision."""
-    from torchrl_auv.training.evaluation import episode_stats  # evaluation imports this module
-
     env = make_env(sea_state, seed)
     policy = build if isinstance(build, torch.nn.Module) else build(env)
     with (
