@@ -73,7 +73,7 @@ def main(cfg: DictConfig) -> None:
             rule=rule,
         )
     #    finetune.steps > 0: the proposer learns too; the first stage's stays the prior's row
-    finetune = training.finetuning_from_config(cfg, proposer)
+    finetune = training.finetuning_from_config(cfg, proposer, first_stage=stage.folder)
     prior = copy.deepcopy(proposer) if finetune else proposer
     buffer = training.buffer_from_config(cfg, run.dir)
     tuned = {"proposer": proposer, "finetune": finetune} if finetune else None

@@ -56,7 +56,11 @@ def _eval_rows(run_dir: Path) -> list[dict]:
 def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
     run_dir = tmp_path / "run"
     # Diffusion+RL also fine-tunes its proposer on its candidates (finetune.*)
-    finetune = ["finetune.steps=2", "finetune.start_frames=200"] if recipe == "diffusion_rl" else []
+    finetune = (
+        ["finetune.steps=2", "finetune.start_frames=200", "finetune.demo_fraction=0.5"]
+        if recipe == "diffusion_rl"
+        else []
+    )
     result = _run(recipe, run_dir, *([] if recipe == "diffusion" else RL_TINY), *finetune)
     assert result.returncode == 0, result.stderr[-3000:]
     # the first stage is one cached artefact beside the run, named in the summary

@@ -13,6 +13,7 @@ from torchrl_auv.training import (
     ProposerFineTuning,
     candidate_weights,
     check_config,
+    demonstration_samples,
     finetuning_from_config,
     make_history_env,
     proposer_alone,
@@ -156,3 +157,33 @@ def test_finetuning_needs_the_selection_and_is_off_at_zero_steps():
     assert finetuning_from_config({}, proposer) is None
     tuner = finetuning_from_config({"seed": 3, "finetune": {"steps": 4, "lr": 3e-4}}, proposer)
     assert tuner.steps == 4 and tuner.optimizer.param_groups[0]["lr"] == 3e-4
+
+
+def test_the_first_stages_samples_are_mixed_into_every_step_as_the_anchor(tmp_path):
+    """demo_fraction: the share of each step's chunks from the first stage's expert-labelled
+    data (demonstrations and DAgger rounds), weight 1, their state the proposer's own."""
+    from torchrl_auv.envs.demonstrations import collect_demonstrations, save_demonstrations
+
+    proposer, data = _batch()
+    options = dict(env="data_collection", episodes=1, max_steps=6, horizon=2, history=2)
+    save_demonstrations(collect_demonstrations(seed=0, **options), tmp_path / "demonstrations")
+    save_demonstrations(collect_demonstrations(seed=1, **options), tmp_path / "dagger1")
+    demos = demonstration_samples(tmp_path, proposer, size=1000)
+    assert demos.shape[0] == 2 * 6 * 2  # both datasets, all of them (fewer than asked)
+    assert demos["state"].shape[-1] == proposer.state_dim
+    assert demonstration_samples(tmp_path, proposer, size=5).shape[0] == 5
+    data.set(SCORES, torch.zeros(data.get(CANDIDATES).shape[:-2]))
+    tuner = ProposerFineTuning(
+        proposer, steps=1, batch_size=10, demonstrations=demos, demo_fraction=0.3
+    )
+    batch = tuner._minibatch(tuner.samples(data))
+    assert batch.shape[0] == 10 and batch["sample_weight"].tolist() == [1.0] * 10
+    states = {tuple(row.tolist()) for row in demos["state"]}
+    assert sum(tuple(row.tolist()) in states for row in batch["state"]) == 3
+    assert tuner.step(data, frames=0)["finetune/loss"] > 0
+    with pytest.raises(ValueError, match="demo_fraction > 0 needs demonstrations"):
+        ProposerFineTuning(proposer, steps=1, demo_fraction=0.5)
+    with pytest.raises(ValueError, match="no first-stage demonstrations"):
+        demonstration_samples(tmp_path / "none", proposer, size=5)
+    with pytest.raises(ValueError, match=r"finetune.demo_fraction must be a number in \[0, 1\)"):
+        check_config({"finetune": {"steps": 1, "demo_fraction": 1.0}})

@@ -137,6 +137,7 @@ from torchrl_auv.training.proposer_finetuning import (
     ProposerFineTuning,
     candidate_weights,
     check_finetune,
+    demonstration_samples,
     finetuning_from_config,
 )
 from torchrl_auv.training.replay import (
@@ -246,6 +247,7 @@ __all__ = [
     "configure_threads",
     "critic_layer_norm",
     "demonstration_frames",
+    "demonstration_samples",
     "env_factory",
     "env_from_config",
     "env_history",

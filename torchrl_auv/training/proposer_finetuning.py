@@ -18,9 +18,13 @@ minimum: pessimistic), :math:`\sigma` the standard deviation of :math:`d` over t
 temperature :math:`\tau` = ``finetune.temperature`` has no unit) and the mean weight 1 per
 state. This is advantage-weighted regression on the proposer's own samples: with
 :math:`\tau \to \infty` it is self-distillation (the proposer stays where it is in
-expectation), with :math:`\tau \to 0` it imitates the critic's best candidate. Fine-tuning
-starts at ``finetune.start_frames`` (after the critics have learnt the anchor's values); the
-first-stage proposer is untouched (the recipes copy it first, for the "proposer alone" row).
+expectation), with :math:`\tau \to 0` it imitates the critic's best candidate. With
+``finetune.demo_fraction = f > 0`` a fraction ``f`` of each step's chunks are the first
+stage's expert-labelled samples (its demonstrations and DAgger rounds, weight 1): the
+denoising loss of the first stage, kept as an anchor (self-distillation alone drifts away from
+the prior; recipes/README.md). Fine-tuning starts at ``finetune.start_frames`` (after the
+critics have learnt the anchor's values); the first-stage proposer is untouched (the recipes
+copy it first, for the "proposer alone" row).
 
 Examples:
     >>> scores = torch.tensor([[0.0, 1.0, 2.0], [5.0, 5.0, 5.0]])
@@ -33,20 +37,23 @@ Examples:
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 
 import torch
 from tensordict import TensorDict, TensorDictBase
 
+from torchrl_auv.envs.demonstrations import load_demonstrations
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.objectives import DenoisingLoss
 from torchrl_auv.training.candidates import CANDIDATES
-from torchrl_auv.training.keys import AGENTS
+from torchrl_auv.training.keys import AGENTS, OBSERVATION
 
 __all__ = [
     "SCORES",
     "ProposerFineTuning",
     "candidate_weights",
     "check_finetune",
+    "demonstration_samples",
     "finetuning_from_config",
 ]
 
@@ -79,6 +86,10 @@ class ProposerFineTuning:
         lr: Adam's step size.
         temperature: :math:`\\tau` (> 0, unitless).
         start_frames: frames collected before the first step.
+        demonstrations: expert-labelled samples (``state`` ``[M, D]``, ``action_chunk``
+            ``[M, H, A]``, ``action_chunk_mask`` ``[M, H]``; :func:`demonstration_samples`)
+            mixed into every step, or ``None``.
+        demo_fraction: the share of each step's chunks drawn from ``demonstrations``.
         generator: source of the minibatches, timesteps and noise.
 
     Examples:
@@ -101,6 +112,8 @@ class ProposerFineTuning:
         lr: float = 1e-4,
         temperature: float = 1.0,
         start_frames: int = 0,
+        demonstrations: TensorDictBase | None = None,
+        demo_fraction: float = 0.0,
         generator: torch.Generator | None = None,
     ) -> None:
         check_finetune(
@@ -110,8 +123,13 @@ class ProposerFineTuning:
                 "lr": lr,
                 "temperature": temperature,
                 "start_frames": start_frames,
+                "demo_fraction": demo_fraction,
             }
         )
+        if demo_fraction and demonstrations is None:
+            raise ValueError("demo_fraction > 0 needs demonstrations (demonstration_samples)")
+        self.demonstrations = demonstrations
+        self.demo_batch = round(batch_size * demo_fraction) if demonstrations is not None else 0
         if proposer.use_ema:
             raise ValueError(
                 "proposer samples from its EMA weights (use_ema): fine-tuning trains the noise "
@@ -164,10 +182,7 @@ class ProposerFineTuning:
             p.requires_grad_(True)
         total = 0.0
         for _ in range(self.steps):
-            index = torch.randint(
-                0, samples.shape[0], (self.batch_size,), generator=self.generator
-            ).to(device)
-            loss = self.loss(samples[index])["loss_denoising"]
+            loss = self.loss(self._minibatch(samples).to(device))["loss_denoising"]
             self.optimizer.zero_grad(set_to_none=True)
             loss.backward()
             self.optimizer.step()
@@ -175,6 +190,20 @@ class ProposerFineTuning:
         self.proposer.train(was_training)
         top = samples["sample_weight"].reshape(-1, data.get(CANDIDATES).shape[-3]).amax(-1)
         return {"finetune/loss": total / self.steps, "finetune/top_weight": float(top.mean())}
+
+    def _minibatch(self, samples: TensorDict) -> TensorDict:
+        """``batch_size`` chunks: the batch's own and, with demonstrations, their share."""
+        own = self.batch_size - self.demo_batch
+        index = torch.randint(0, samples.shape[0], (own,), generator=self.generator)
+        batch = samples[index]
+        if not self.demo_batch:
+            return batch
+        demos = self.demonstrations
+        pick = torch.randint(0, demos.shape[0], (self.demo_batch,), generator=self.generator)
+        demos = demos[pick]
+        batch["action_chunk_mask"] = torch.ones(batch["action_chunk"].shape[:-1], dtype=torch.bool)
+        demos["sample_weight"] = torch.ones(self.demo_batch)
+        return torch.cat([batch, demos.select(*batch.keys())])
 
     def state_dict(self) -> dict:
         """The optimiser's state (the proposer's weights are checkpointed as a module)."""
@@ -190,22 +219,73 @@ def check_finetune(finetune: Mapping) -> None:
         value = finetune.get(name, 0)
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise ValueError(f"finetune.{name} must be an integer >= 0, got {value!r}")
+    samples = finetune.get("demo_samples", 50_000)
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise ValueError(f"finetune.demo_samples must be an integer >= 1, got {samples!r}")
     size = finetune.get("batch_size", 256)
     if isinstance(size, bool) or not isinstance(size, int) or size < 1:
         raise ValueError(f"finetune.batch_size must be an integer >= 1, got {size!r}")
+    fraction = finetune.get("demo_fraction", 0.0)
+    if isinstance(fraction, bool) or not isinstance(fraction, int | float) or not 0 <= fraction < 1:
+        raise ValueError(f"finetune.demo_fraction must be a number in [0, 1), got {fraction!r}")
     for name in ("lr", "temperature"):
         value = finetune.get(name, 1.0)
         if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
             raise ValueError(f"finetune.{name} must be a number > 0, got {value!r}")
 
 
-def finetuning_from_config(cfg: Mapping, proposer: DiffusionProposer) -> ProposerFineTuning | None:
+def demonstration_samples(
+    folder: str | Path, proposer: DiffusionProposer, size: int, seed: int = 0
+) -> TensorDict:
+    """``size`` samples drawn at random (without replacement, ``seed``) from a first stage's
+    expert-labelled data in ``folder`` (its ``demonstrations`` and ``dagger<r>`` datasets):
+    ``state`` (the proposer's conditioning state), ``action_chunk``, ``action_chunk_mask``."""
+    folder = Path(folder)
+    parts = [folder / "demonstrations", *sorted(folder.glob("dagger*"))]
+    parts = [path for path in parts if (path / "metadata.json").exists()]
+    if not parts:
+        raise ValueError(f"folder {folder} holds no first-stage demonstrations")
+    keys = ("observation", "history", "action_chunk", "action_chunk_mask")
+    data = torch.cat([load_demonstrations(path)[:].select(*keys) for path in parts])
+    pick = torch.randperm(len(data), generator=torch.Generator().manual_seed(seed))[:size]
+    data = data[pick]
+    nested = TensorDict(
+        {OBSERVATION: data["observation"], (AGENTS, "history"): data["history"]},
+        batch_size=data.batch_size,
+    )
+    with torch.no_grad():
+        state = proposer.build_state(nested)
+    return TensorDict(
+        {
+            "state": state,
+            "action_chunk": data["action_chunk"],
+            "action_chunk_mask": data["action_chunk_mask"],
+        },
+        batch_size=data.batch_size,
+    )
+
+
+def finetuning_from_config(
+    cfg: Mapping, proposer: DiffusionProposer, first_stage: str | Path | None = None
+) -> ProposerFineTuning | None:
     """The :class:`ProposerFineTuning` of ``cfg.finetune`` (checked), or ``None`` where
-    ``finetune.steps`` is 0 or the config has no ``finetune`` group."""
+    ``finetune.steps`` is 0 or the config has no ``finetune`` group. With
+    ``finetune.demo_fraction > 0`` the ``first_stage`` folder's samples
+    (``finetune.demo_samples`` of them, :func:`demonstration_samples`) are mixed in."""
     finetune = cfg.get("finetune") or {}
     check_finetune(finetune)
     if not finetune.get("steps", 0):
         return None
+    fraction = finetune.get("demo_fraction", 0.0)
+    demonstrations = None
+    if fraction:
+        if first_stage is None:
+            raise ValueError(
+                "finetune.demo_fraction > 0 mixes in the first stage's demonstrations: "
+                "it needs the first stage's folder (not a bare proposer.path file)"
+            )
+        size = finetune.get("demo_samples", 50_000)
+        demonstrations = demonstration_samples(first_stage, proposer, size, cfg.get("seed", 0))
     return ProposerFineTuning(
         proposer,
         steps=finetune["steps"],
@@ -213,5 +293,7 @@ def finetuning_from_config(cfg: Mapping, proposer: DiffusionProposer) -> Propose
         lr=finetune.get("lr", 1e-4),
         temperature=finetune.get("temperature", 1.0),
         start_frames=finetune.get("start_frames", 0),
+        demonstrations=demonstrations,
+        demo_fraction=fraction,
         generator=torch.Generator().manual_seed(int(cfg.get("seed", 0)) + 7919),
     )
