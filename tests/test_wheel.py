@@ -6,9 +6,9 @@ short training run; about 5-10 minutes):
 torch pinned first (as the Makefile does), the wheel next with its declared (core) dependencies,
 then, from a folder outside the checkout with nothing of the checkout on ``sys.path``: the
 package imports, ships ``py.typed`` and its recipes, registers both gymnasium ids, builds both
-envs; the console refuses the recipes, naming the ``recipes`` extra; with the extra installed:
-the Pendulum composition example runs; ``torchrl-auv train framework=diffusion_lac
-preset=quick`` trains a few hundred frames and writes its summary.
+envs; the console refuses the recipes, naming the ``recipes`` extra; the Pendulum composition
+example (LAC) runs on the core alone; with the ``recipes`` extra installed, ``torchrl-auv train
+framework=diffusion_lac preset=quick`` trains a few hundred frames and writes its summary.
 """
 
 from __future__ import annotations
@@ -90,13 +90,7 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
         [console, "train"], cwd=work, env=env, capture_output=True, text=True, timeout=300
     )
     assert refused.returncode == 2 and "pip install 'torchrl-auv[recipes]'" in refused.stderr
-    # then the recipes extra
-    _run(
-        [str(python), "-m", "pip", "install", "--quiet", TORCH, f"{wheel}[recipes]"],
-        cwd=tmp_path,
-        env=env,
-    )
-
+    # LAC on the core alone (TorchRL's Pendulum and the tracking env)
     out = _run(
         [
             str(python),
@@ -110,6 +104,13 @@ def test_the_wheel_installs_and_trains_outside_the_checkout(tmp_path):
         env=env,
     )
     print(out)
+
+    # then the recipes extra
+    _run(
+        [str(python), "-m", "pip", "install", "--quiet", TORCH, f"{wheel}[recipes]"],
+        cwd=tmp_path,
+        env=env,
+    )
 
     job = Job("diffusion_lac", "ideal", "s_surface", 0)
     overrides = job.overrides("quick", root=work, frames=400)
