@@ -25,7 +25,7 @@ ALLOWED_IMPORTS: dict[str, set[str]] = {
     "envs": {"physics", "estimation", "control", "iout"},
     "modules": set(),
     "objectives": {"modules"},
-    "advisor": {"objectives"},
+    "advisor": {"objectives", "modules"},
     "evaluation": {"physics", "estimation", "control", "iout", "envs", "modules", "objectives"},
     "training": {
         "physics",

@@ -11,10 +11,11 @@ or through others):
 * :mod:`torchrl_auv.iout`: the data-collection task: nodes, network, expert, cost (the above).
 * :mod:`torchrl_auv.envs`: the TorchRL ``EnvBase`` environments and their gymnasium ids
   (the above).
-* :mod:`torchrl_auv.modules`: the diffusion proposer and other ``TensorDictModule`` s (none).
-* :mod:`torchrl_auv.objectives`: the Lyapunov actor-critic loss, the candidate selection and
-  backups (modules).
-* :mod:`torchrl_auv.advisor`: the LLM / rule-based outer loop (objectives).
+* :mod:`torchrl_auv.modules`: the ``TensorDictModule`` s: the diffusion proposer, the candidate
+  selector and its rule, the Q ensemble, the Lyapunov forms and spec (none).
+* :mod:`torchrl_auv.objectives`: the ``LossModule`` s: the Lyapunov actor-critic, the denoising
+  loss, SAC with the candidate backup or a residual actor (modules).
+* :mod:`torchrl_auv.advisor`: the LLM / rule-based outer loop (objectives, modules).
 * :mod:`torchrl_auv.evaluation`: held-out evaluation: episode statistics, reference policies,
   the worker pool (envs, modules, objectives and below).
 * :mod:`torchrl_auv.training`: what the recipes build: envs, learners, collectors, runs

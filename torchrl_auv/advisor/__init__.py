@@ -2,7 +2,7 @@
 
 An advisor reads the task text and a :class:`TrainingFeedback` and returns an
 :class:`AdvisorDecision`; :class:`AdvisorTrigger` decides when to ask, applies the decision to
-the loss through its :class:`~torchrl_auv.objectives.LyapunovSpec` and keeps a JSONL decision
+the loss through its :class:`~torchrl_auv.modules.LyapunovSpec` and keeps a JSONL decision
 log. :class:`RuleBasedAdvisor` is the offline default (rules, not an LLM);
 :class:`OpenAICompatibleAdvisor` asks any OpenAI-compatible model. This package knows the loss
 only through ``spec`` / ``set_lyapunov_spec`` and never executes text it receives.

@@ -1,9 +1,9 @@
 """What an advisor returns, how any answer is validated, and the ``Advisor`` protocol.
 
 Whatever an advisor (rules or a language model) answers is checked here before the loss sees
-it: the form must be a name of :data:`~torchrl_auv.objectives.FORMS` (otherwise the answer is
+it: the form must be a name of :data:`~torchrl_auv.modules.FORMS` (otherwise the answer is
 rejected and the current spec kept), the prior ``None`` or a name of
-:data:`~torchrl_auv.objectives.PRIORS` (otherwise snapped to ``None``), alpha a finite number
+:data:`~torchrl_auv.modules.PRIORS` (otherwise snapped to ``None``), alpha a finite number
 (otherwise rejected) snapped into :data:`ALPHA_RANGE` = [0.05, 0.5]. Every snap and rejection is
 recorded in ``reasons``.
 """
@@ -15,8 +15,8 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
+from torchrl_auv.modules.lyapunov_forms import ALPHA_RANGE
 from torchrl_auv.objectives import FORMS, PRIORS, LyapunovSpec
-from torchrl_auv.objectives.lyapunov_forms import ALPHA_RANGE
 
 if TYPE_CHECKING:
     from torchrl_auv.advisor.feedback import TrainingFeedback

@@ -11,7 +11,7 @@ Definitions (all dimensionless):
   earlier half over ``|earlier half|`` (> 0: improving).
 - ``position_oscillation`` / ``velocity_oscillation``: the zero-crossing rate per step of the
   position-like / velocity-like observation entries (tracking errors and rates; the indices of
-  :class:`~torchrl_auv.objectives.LyapunovSpec`'s priors by default): 0 for a monotone
+  :class:`~torchrl_auv.modules.LyapunovSpec`'s priors by default): 0 for a monotone
   approach, about 0.5 for noise, 1 for a sign flip every step. ``oscillation_index`` is the
   larger of the two.
 - ``violation_rate``: mean fraction of transitions with :math:`\\Delta L > 0`.

@@ -1,11 +1,15 @@
-"""Neural modules: the diffusion proposer, its noise models and noise schedules.
+"""Neural modules: the diffusion proposer (its noise models and noise schedules), the candidate
+selector and its selection rule, the Q ensemble, the Lyapunov forms and the one Lyapunov spec
+that a loss and its selectors share.
 
-Owns the TensorDict modules policies are built from. Independent of our envs: a module reads
-keys and specs, so it works on any TorchRL env with the right keys.
+Owns the TensorDict modules policies are built from (``objectives`` holds the losses, which
+train them). Independent of our envs: a module reads keys and specs, so it works on any TorchRL
+env with the right keys.
 """
 
 from __future__ import annotations
 
+from torchrl_auv.modules.candidate_selector import SELECTION_MODES, CandidateSelector
 from torchrl_auv.modules.consensus import (
     CANDIDATE_PICKS,
     ProposerAlone,
@@ -13,6 +17,13 @@ from torchrl_auv.modules.consensus import (
     pick_candidate,
 )
 from torchrl_auv.modules.diffusion_schedule import SAMPLERS, SCHEDULES, NoiseSchedule
+from torchrl_auv.modules.lyapunov_forms import (
+    FORMS,
+    PRIORS,
+    LyapunovSpec,
+    LyapunovSpecState,
+    lyapunov_value,
+)
 from torchrl_auv.modules.noise_models import (
     MLPNoiseModel,
     SinusoidalEmbedding,
@@ -20,17 +31,30 @@ from torchrl_auv.modules.noise_models import (
     make_noise_model,
 )
 from torchrl_auv.modules.proposer import DiffusionProposer
+from torchrl_auv.modules.q_ensemble import Q_REDUCTIONS, QEnsembleCritic
+from torchrl_auv.modules.selection_rule import ANCHORS, SelectionRule
 
 __all__ = [
+    "ANCHORS",
     "CANDIDATE_PICKS",
+    "FORMS",
+    "PRIORS",
+    "Q_REDUCTIONS",
     "SAMPLERS",
     "SCHEDULES",
+    "SELECTION_MODES",
+    "CandidateSelector",
     "DiffusionProposer",
+    "LyapunovSpec",
+    "LyapunovSpecState",
     "MLPNoiseModel",
     "NoiseSchedule",
     "ProposerAlone",
+    "QEnsembleCritic",
+    "SelectionRule",
     "SinusoidalEmbedding",
     "TemporalUNet1d",
+    "lyapunov_value",
     "make_noise_model",
     "medoid_index",
     "pick_candidate",

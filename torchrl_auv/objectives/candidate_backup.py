@@ -14,7 +14,7 @@ follows the executed policy instead (``backup="candidates"``):
     \mathrm{anchor}(s')),
 
 with :math:`\underline Q', \overline Q'` the minimum and maximum over the target Q ensemble and
-``rule`` the :class:`~torchrl_auv.objectives.SelectionRule` the selector acts with (argmax: the
+``rule`` the :class:`~torchrl_auv.modules.SelectionRule` the selector acts with (argmax: the
 expected-max-Q backup of EMaQ, Ghasemipour et al. 2021; anchored: the medoid unless a candidate
 dominates it). The proposer is the behaviour prior, so the candidates stand for the policy's
 support; no actor sample and no entropy term enter the target.
@@ -33,7 +33,7 @@ import torch
 from tensordict import NestedKey, TensorDict, TensorDictBase
 from torchrl.objectives import SACLoss
 
-from torchrl_auv.objectives.selection_rule import SelectionRule
+from torchrl_auv.modules.selection_rule import SelectionRule
 
 __all__ = ["BACKUPS", "CandidateBackupSACLoss", "per_candidate"]
 
@@ -96,7 +96,7 @@ class CandidateBackupSACLoss(SACLoss):
         *args: ``SACLoss``'s positional arguments.
         **kwargs: ``SACLoss``'s keyword arguments.
         backup: one of :data:`BACKUPS`.
-        rule: the :class:`~torchrl_auv.objectives.SelectionRule` the selector acts with
+        rule: the :class:`~torchrl_auv.modules.SelectionRule` the selector acts with
             (kept by reference: its ``deviate`` switch reaches the target; default argmax).
 
     Keys (``set_keys``, read under ``"next"``): SACLoss's, plus ``candidates`` (first actions

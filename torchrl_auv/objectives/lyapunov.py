@@ -2,7 +2,7 @@ r"""``LyapunovActorCriticLoss``: the Lyapunov actor-critic (LAC) with Lagrangian
 
 Paper §III-B (eqs. 20-28) after Han et al. (2020). With cost :math:`c \ge 0` (the ``cost`` key
 when present, else :math:`-r`), a Lyapunov critic :math:`L(s, a) = \mathrm{form}(z(s, a)) \ge 0`
-(:mod:`~torchrl_auv.objectives.lyapunov_forms`), the actor :math:`\pi`, the Lagrange multiplier
+(:mod:`~torchrl_auv.modules.lyapunov_forms`), the actor :math:`\pi`, the Lagrange multiplier
 :math:`\lambda \in [0, \lambda_{max}]` and the entropy temperature :math:`\beta`:
 
 .. math::
@@ -70,14 +70,14 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import ValueEstimators
 
-from torchrl_auv.objectives.candidate_backup import check_backup, next_candidates, per_candidate
-from torchrl_auv.objectives.lyapunov_forms import (
+from torchrl_auv.modules.lyapunov_forms import (
     FORMS,
     LyapunovSpec,
     LyapunovSpecState,
     lyapunov_value,
 )
-from torchrl_auv.objectives.selection_rule import SelectionRule
+from torchrl_auv.modules.selection_rule import SelectionRule
+from torchrl_auv.objectives.candidate_backup import check_backup, next_candidates, per_candidate
 
 __all__ = ["LOSS_FUNCTIONS", "MODES", "LyapunovActorCriticLoss"]
 
@@ -110,7 +110,7 @@ class LyapunovActorCriticLoss(LossModule):
         lyapunov_network: a ``ValueOperator``-like module reading observation and action and
             writing the raw critic output (``state_action_value`` for TorchRL's
             ``ValueOperator``); the loss applies the form.
-        form: a Lyapunov form name (:data:`~torchrl_auv.objectives.FORMS`), or pass ``spec``.
+        form: a Lyapunov form name (:data:`~torchrl_auv.modules.FORMS`), or pass ``spec``.
         stability_weight: :math:`\\alpha > 0`.
         mode: ``"lac"`` (default) or ``"paper"``.
         loss_function: the critic's TD loss, one of :data:`LOSS_FUNCTIONS` (default ``l2``).
@@ -119,7 +119,7 @@ class LyapunovActorCriticLoss(LossModule):
         beta_init: initial entropy temperature (> 0).
         target_entropy: ``"auto"`` (minus the action dimension) or a number.
         action_spec: optional, for the ``"auto"`` target entropy.
-        spec: a full :class:`~torchrl_auv.objectives.LyapunovSpec` (overrides ``form`` and
+        spec: a full :class:`~torchrl_auv.modules.LyapunovSpec` (overrides ``form`` and
             ``stability_weight``).
         qvalue_network: optional task critic (a ``ValueOperator``-like module reading
             observation and action, writing the ``qvalue`` key): trained on ``task_cost``, it
@@ -131,7 +131,7 @@ class LyapunovActorCriticLoss(LossModule):
             ``rule``; :mod:`~torchrl_auv.objectives.candidate_backup`), read from the
             ``candidates`` and ``anchor`` keys under ``"next"``. The actor's own loss is
             unchanged.
-        rule: the selector's :class:`~torchrl_auv.objectives.SelectionRule` (by reference;
+        rule: the selector's :class:`~torchrl_auv.modules.SelectionRule` (by reference;
             default argmin).
 
     Keys (``set_keys``): ``action``, ``reward``, ``cost`` (the Lyapunov critic's cost; ``-reward``
@@ -263,7 +263,7 @@ class LyapunovActorCriticLoss(LossModule):
     @property
     def spec(self) -> LyapunovSpec:
         """The Lyapunov form, prior and stability weight in force: :attr:`spec_state`'s (a
-        :class:`~torchrl_auv.objectives.LyapunovSpecState`, in this loss's state dict, so a
+        :class:`~torchrl_auv.modules.LyapunovSpecState`, in this loss's state dict, so a
         checkpoint of the loss restores it). Assigning it (or :meth:`set_lyapunov_spec`)
         sets it for every module given to :meth:`share_spec` too: they hold the same object."""
         return self.spec_state.spec
@@ -279,7 +279,7 @@ class LyapunovActorCriticLoss(LossModule):
         self.spec = spec
 
     def share_spec(self, reader):
-        """Make ``reader`` (e.g. a :class:`~torchrl_auv.objectives.CandidateSelector` ranking
+        """Make ``reader`` (e.g. a :class:`~torchrl_auv.modules.CandidateSelector` ranking
         with this loss's critic) hold this loss's :attr:`spec_state`: the same object, so an
         advisor's or a checkpoint's spec is the reader's too. Returns ``reader``.
 

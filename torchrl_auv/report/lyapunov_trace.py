@@ -1,7 +1,7 @@
 """The Lyapunov value along evaluation episodes (the paper's Fig. 10-11).
 
 The full framework executes, every decision and for every AUV, the candidate whose Lyapunov
-value :math:`L(s, a)` is lowest (:class:`~torchrl_auv.objectives.CandidateSelector`, which
+value :math:`L(s, a)` is lowest (:class:`~torchrl_auv.modules.CandidateSelector`, which
 writes each candidate's score :math:`-L` and the executed index). :func:`executed_lyapunov`
 reads the executed candidate's :math:`L` from a rollout; :func:`lyapunov_trace` summarises it
 per decision over the episodes (one per scene and AUV): mean, standard deviation and the

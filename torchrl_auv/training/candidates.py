@@ -6,7 +6,7 @@ on (:mod:`~torchrl_auv.objectives.candidate_backup`):
 - ``backup``: ``actor`` (the actor's next action, as published) or ``candidates`` (the
   candidate the selector would execute at the next state);
 - ``anchor``: ``null`` (the critic's best) or ``medoid`` (the prior's consensus unless a
-  candidate dominates it, :class:`~torchrl_auv.objectives.SelectionRule`), with ``margin``;
+  candidate dominates it, :class:`~torchrl_auv.modules.SelectionRule`), with ``margin``;
 - ``warmup_frames``: frames during which the anchor is executed while the critics learn its
   values (needs ``anchor: medoid``).
 
@@ -33,8 +33,8 @@ from tensordict import TensorDictBase
 
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.modules.consensus import medoid_index
+from torchrl_auv.modules.selection_rule import ANCHORS, SelectionRule
 from torchrl_auv.objectives.candidate_backup import BACKUPS
-from torchrl_auv.objectives.selection_rule import ANCHORS, SelectionRule
 from torchrl_auv.training.keys import AGENTS
 
 __all__ = [
@@ -81,7 +81,7 @@ def check_selection(selection: Mapping) -> None:
 
 
 def selection_rule_from_config(cfg: Mapping) -> SelectionRule:
-    """The :class:`~torchrl_auv.objectives.SelectionRule` of ``cfg.selection`` (checked)."""
+    """The :class:`~torchrl_auv.modules.SelectionRule` of ``cfg.selection`` (checked)."""
     selection = cfg.get("selection") or {}
     check_selection(selection)
     return SelectionRule(anchor=selection.get("anchor"), margin=selection.get("margin", 0.0))

@@ -16,8 +16,8 @@ from collections.abc import Mapping
 
 from torchrl_auv.control import available_controllers
 from torchrl_auv.modules import CANDIDATE_PICKS, SAMPLERS
+from torchrl_auv.modules.lyapunov_forms import FORMS
 from torchrl_auv.objectives import LR_SCHEDULES
-from torchrl_auv.objectives.lyapunov_forms import FORMS
 from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
 from torchrl_auv.training.candidates import check_selection

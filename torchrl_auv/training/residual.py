@@ -148,7 +148,7 @@ def residual_policy(
     """The proposer alone (``pick`` of ``num_candidates`` draws, re-planned every decision)
     writing :data:`PRIOR_ACTION`, then the residual ``actor`` writing the executed action
     (``policy[0]`` is the prior). With ``lyapunov = (critic, loss)`` (the LAC recipe) a
-    :class:`~torchrl_auv.objectives.CandidateSelector` in mode ``"lyapunov"`` then scores the
+    :class:`~torchrl_auv.modules.CandidateSelector` in mode ``"lyapunov"`` then scores the
     executed action, its one candidate, with ``critic`` under ``loss``'s Lyapunov spec: it
     writes ``("agents", "selector", "scores")`` (``-L``) and ``"index"`` (0), what the
     Lyapunov trace reads (:func:`~torchrl_auv.report.write_lyapunov_trace`)."""

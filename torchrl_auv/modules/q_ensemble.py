@@ -92,7 +92,7 @@ class QEnsembleCritic(TensorDictModuleBase):
 
     def members(self, tensordict: TensorDictBase) -> torch.Tensor:
         """Every member's value ``[n, *B, 1]`` (no gradient; ``tensordict`` is not written):
-        the ensemble's spread, e.g. for :class:`~torchrl_auv.objectives.SelectionRule`."""
+        the ensemble's spread, e.g. for :class:`~torchrl_auv.modules.SelectionRule`."""
         values = []
         with torch.no_grad():
             for i in range(self.num_nets):

@@ -8,7 +8,7 @@ paper's form :math:`L(s, a_k) - L(s, a) + \alpha c` (the other terms do not depe
 candidate), so one Lyapunov mode serves both. Optionally the actor's own action joins as one
 more candidate. Exploration: a softmax over the scores with a temperature, or epsilon-greedy.
 The ranking (best first) is kept so that OA, CA1 ... CA4 of the paper's Fig. 8/9 are
-recoverable. A :class:`~torchrl_auv.objectives.SelectionRule` anchored on the medoid makes the
+recoverable. A :class:`~torchrl_auv.modules.SelectionRule` anchored on the medoid makes the
 choice a safe improvement on the prior: the prior's consensus candidate unless a candidate
 beats it by more than the critic ensemble's disagreement.
 """
@@ -20,8 +20,8 @@ from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
 from tensordict.nn import TensorDictModuleBase
 
 from torchrl_auv.modules.consensus import medoid_index
-from torchrl_auv.objectives.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
-from torchrl_auv.objectives.selection_rule import SelectionRule
+from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
+from torchrl_auv.modules.selection_rule import SelectionRule
 
 __all__ = ["SELECTION_MODES", "CandidateSelector"]
 
@@ -54,8 +54,8 @@ class CandidateSelector(TensorDictModuleBase):
         include_actor_action: score the actor's action as one more candidate.
         generator: source of exploration draws.
         rule: which scored candidate is executed
-            (:class:`~torchrl_auv.objectives.SelectionRule`; default: the best). With a critic
-            that has ``members`` (:class:`~torchrl_auv.objectives.QEnsembleCritic`, mode
+            (:class:`~torchrl_auv.modules.SelectionRule`; default: the best). With a critic
+            that has ``members`` (:class:`~torchrl_auv.modules.QEnsembleCritic`, mode
             ``"q"``) the rule compares the reduced score with the members' maximum.
 
     Examples:
@@ -128,7 +128,7 @@ class CandidateSelector(TensorDictModuleBase):
     @property
     def spec(self) -> LyapunovSpec:
         """The Lyapunov form (mode ``"lyapunov"``): :attr:`spec_state`'s, a
-        :class:`~torchrl_auv.objectives.LyapunovSpecState` (the loss's own when shared with
+        :class:`~torchrl_auv.modules.LyapunovSpecState` (the loss's own when shared with
         :meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.share_spec`). A copy whose
         weights were loaded, or synced by a collector, follows them.
 
