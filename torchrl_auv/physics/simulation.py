@@ -3,10 +3,9 @@
 :func:`step_in_ocean` evaluates :func:`torchrl_auv.physics.ocean.current_at` at the vehicle's
 position and depth (horizontal current and orbital velocity as speed and direction, plus the
 vertical orbital velocity) and passes it to :func:`torchrl_auv.physics.remus100.step`.
-:func:`compiled_step_in_ocean` fuses both through ``torch.compile``; on the 2-core development
-machine it ran 4096 vehicles (100 wave components each) in ~1.1 ms per step instead of ~6 ms,
-and one vehicle in ~55 us instead of ~500 us (``benchmarks/bench_physics.py``). Advance the
-ocean itself with :func:`torchrl_auv.physics.ocean.step_ocean` (it draws random numbers).
+:func:`compiled_step_in_ocean` fuses both through ``torch.compile`` (the same numbers, several
+times faster after a compile of minutes; ``benchmarks/bench_physics.py`` measures it). Advance
+the ocean itself with :func:`torchrl_auv.physics.ocean.step_ocean` (it draws random numbers).
 """
 
 from __future__ import annotations
