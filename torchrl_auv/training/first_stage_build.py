@@ -28,7 +28,7 @@ from torchrl_auv.modules import DiffusionProposer, ProposerAlone
 from torchrl_auv.objectives import pretrain_proposer
 from torchrl_auv.training.keys import AGENTS, OBSERVATION
 
-__all__ = ["build_first_stage", "untrained_proposer"]
+__all__ = ["build_first_stage", "demonstrations_with_env_keys", "untrained_proposer"]
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +64,7 @@ def _dagger_policy(proposer: DiffusionProposer, env) -> ProposerAlone:
     return ProposerAlone(proposer, "medoid", action_key=env.base_env.agent_action_key)
 
 
-def _nested(data: TensorDictBase) -> TensorDictBase:
+def demonstrations_with_env_keys(data: TensorDictBase) -> TensorDictBase:
     """Demonstration samples with the env's keys (the dataset's are flat: ``observation``,
     ``("history", ...)``)."""
     nested = data.empty()
@@ -193,7 +193,7 @@ def build_first_stage(
             torch.manual_seed(values["seed"] + len(phases))
             result = pretrain_proposer(
                 proposer,
-                _nested(data),
+                demonstrations_with_env_keys(data),
                 steps=steps,
                 batch_size=train["batch_size"],
                 lr=lr,

@@ -46,7 +46,8 @@ from torchrl_auv.envs.demonstrations import load_demonstrations
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.objectives import DenoisingLoss
 from torchrl_auv.training.candidates import CANDIDATES
-from torchrl_auv.training.keys import AGENTS, OBSERVATION
+from torchrl_auv.training.first_stage_build import demonstrations_with_env_keys
+from torchrl_auv.training.keys import AGENTS
 
 __all__ = [
     "SCORES",
@@ -87,8 +88,8 @@ class ProposerFineTuning:
         temperature: :math:`\\tau` (> 0, unitless).
         start_frames: frames collected before the first step.
         demonstrations: expert-labelled samples (``state`` ``[M, D]``, ``action_chunk``
-            ``[M, H, A]``, ``action_chunk_mask`` ``[M, H]``; :func:`demonstration_samples`)
-            mixed into every step, or ``None``.
+            ``[M, H, A]``, ``action_chunk_mask`` ``[M, H]``, ``sample_weight`` ``[M]``;
+            :func:`demonstration_samples`) mixed into every step, or ``None``.
         demo_fraction: the share of each step's chunks drawn from ``demonstrations``.
         generator: source of the minibatches, timesteps and noise.
 
@@ -160,7 +161,7 @@ class ProposerFineTuning:
             state = self.proposer.build_state(data)  # [*B, N, D]
             weight = candidate_weights(scores, self.temperature)
         state = state.unsqueeze(-2).expand(*scores.shape, state.shape[-1])
-        return TensorDict(
+        samples = TensorDict(
             {
                 "state": state.reshape(-1, state.shape[-1]),
                 "action_chunk": candidates.reshape(-1, *candidates.shape[-2:]),
@@ -168,6 +169,11 @@ class ProposerFineTuning:
             },
             batch_size=[weight.numel()],
         )
+        if self.demo_batch:  # the demonstrations' keys, to stack with them
+            samples["action_chunk_mask"] = torch.ones(
+                samples["action_chunk"].shape[:-1], dtype=torch.bool
+            )
+        return samples
 
     def step(self, data: TensorDictBase, frames: int) -> dict[str, float]:
         """Fine-tune on ``data`` (a collected batch) once ``frames`` (collected so far) reach
@@ -200,10 +206,7 @@ class ProposerFineTuning:
             return batch
         demos = self.demonstrations
         pick = torch.randint(0, demos.shape[0], (self.demo_batch,), generator=self.generator)
-        demos = demos[pick]
-        batch["action_chunk_mask"] = torch.ones(batch["action_chunk"].shape[:-1], dtype=torch.bool)
-        demos["sample_weight"] = torch.ones(self.demo_batch)
-        return torch.cat([batch, demos.select(*batch.keys())])
+        return torch.cat([batch, demos[pick].select(*batch.keys())])
 
     def state_dict(self) -> dict:
         """The optimiser's state (the proposer's weights are checkpointed as a module)."""
@@ -239,27 +242,25 @@ def demonstration_samples(
 ) -> TensorDict:
     """``size`` samples drawn at random (without replacement, ``seed``) from a first stage's
     expert-labelled data in ``folder`` (its ``demonstrations`` and ``dagger<r>`` datasets):
-    ``state`` (the proposer's conditioning state), ``action_chunk``, ``action_chunk_mask``."""
+    ``state`` (the proposer's conditioning state), ``action_chunk``, ``action_chunk_mask`` and
+    ``sample_weight`` (1)."""
     folder = Path(folder)
     parts = [folder / "demonstrations", *sorted(folder.glob("dagger*"))]
     parts = [path for path in parts if (path / "metadata.json").exists()]
     if not parts:
         raise ValueError(f"folder {folder} holds no first-stage demonstrations")
-    keys = ("observation", "history", "action_chunk", "action_chunk_mask")
+    keys = ("observation", "history", "action_chunk", "action_chunk_mask", "overridden", "episode")
     data = torch.cat([load_demonstrations(path)[:].select(*keys) for path in parts])
     pick = torch.randperm(len(data), generator=torch.Generator().manual_seed(seed))[:size]
-    data = data[pick]
-    nested = TensorDict(
-        {OBSERVATION: data["observation"], (AGENTS, "history"): data["history"]},
-        batch_size=data.batch_size,
-    )
+    data = demonstrations_with_env_keys(data[pick])
     with torch.no_grad():
-        state = proposer.build_state(nested)
+        state = proposer.build_state(data)
     return TensorDict(
         {
             "state": state,
             "action_chunk": data["action_chunk"],
             "action_chunk_mask": data["action_chunk_mask"],
+            "sample_weight": torch.ones(data.batch_size),
         },
         batch_size=data.batch_size,
     )
