@@ -77,7 +77,7 @@ def main(argv=None) -> None:
     args = setup(__doc__.split("\n")[0], argv, _arguments)
     from torchrl_auv.modules import DiffusionProposer
     from torchrl_auv.training import ArtefactCache, first_stage_from_config
-    from torchrl_auv.training.artefacts import VALUES_FILE
+    from torchrl_auv.training.first_stage.artefacts import VALUES_FILE
 
     rows = []
     if args.cache:

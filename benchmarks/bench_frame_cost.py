@@ -86,7 +86,7 @@ def _build(
     from hydra import compose, initialize_config_dir
 
     from torchrl_auv import training
-    from torchrl_auv.training.first_stage_build import untrained_proposer
+    from torchrl_auv.training.first_stage.build import untrained_proposer
 
     overrides = [
         f"framework={framework}",

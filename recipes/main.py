@@ -19,7 +19,7 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from torchrl_auv.training.seeding import configure_threads, seed_everything
+from torchrl_auv.training.run.seeding import configure_threads, seed_everything
 
 log = logging.getLogger(__name__)
 COLUMNS = (

@@ -18,7 +18,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from torchrl_auv.training.seeding import configure_threads, seed_everything
+from torchrl_auv.training.run.seeding import configure_threads, seed_everything
 
 
 def main(argv: Sequence[str] | None = None) -> int:

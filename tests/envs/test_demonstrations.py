@@ -212,7 +212,7 @@ def test_a_sampling_policys_batches_depend_on_seed_and_batch_alone():
     from functools import partial
 
     from torchrl_auv.envs.demonstrations import collect_demonstration_batches
-    from torchrl_auv.training.first_stage_build import _dagger_policy, untrained_proposer
+    from torchrl_auv.training.first_stage.build import _dagger_policy, untrained_proposer
 
     torch.manual_seed(0)
     model = {

@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from torchrl_auv.training.artefacts import ArtefactCache, values_key
+from torchrl_auv.training.first_stage.artefacts import ArtefactCache, values_key
 
 
 def _build_counting(folder):

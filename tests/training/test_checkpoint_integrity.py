@@ -10,9 +10,9 @@ import pytest
 import torch
 from torchrl.checkpoint import CheckpointError
 
-from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
-from torchrl_auv.training.progress import Progress
-from torchrl_auv.training.verified_rotation import CHECKSUMS, checkpoint_problems
+from torchrl_auv.training.run.checkpointing import make_checkpoint, resume_latest
+from torchrl_auv.training.run.progress import Progress
+from torchrl_auv.training.run.verified_rotation import CHECKSUMS, checkpoint_problems
 
 
 def _two_checkpoints(run_dir):

@@ -184,7 +184,7 @@ def test_building_or_reusing_the_first_stage_leaves_the_global_rng_alike(tmp_pat
 def test_a_build_cut_short_goes_on_to_the_artefact_an_uninterrupted_build_writes(
     tmp_path, monkeypatch
 ):
-    import torchrl_auv.training.first_stage_build as build
+    import torchrl_auv.training.first_stage.build as build
 
     def built(folder):  # each build from the same global RNG state, as a fresh run's
         torch.manual_seed(0)

@@ -11,7 +11,7 @@ from tensordict import TensorDict
 
 from torchrl_auv.training import Progress
 from torchrl_auv.training.replay import make_replay_buffer
-from torchrl_auv.training.run import _prepare_resume
+from torchrl_auv.training.run.training_run import _prepare_resume
 
 
 def _cfg(run_dir, *, keep_buffer: bool, resume: bool):

@@ -117,7 +117,7 @@ def test_the_envs_history_is_a_field_of_the_env_config(history, ok):
 def test_eval_csv_is_written_whole_or_not_at_all(tmp_path):
     """eval.csv marks a finished run: a write that fails midway leaves none (nor its
     temporary file), and a rewrite replaces the old one whole."""
-    from torchrl_auv.training.summary import write_eval
+    from torchrl_auv.training.run.summary import write_eval
 
     rows = [{"sea_state": "ves", "policy": "sac", "ssn": 1.0}]
     path = write_eval(rows, tmp_path)

@@ -1,4 +1,4 @@
-"""One writer per run folder (``torchrl_auv.training.run_lock``): two starts or two resumes
+"""One writer per run folder (``torchrl_auv.training.run.lock``): two starts or two resumes
 on one folder at the same moment, exactly one proceeds; the other is refused naming the holder
 and writes nothing; a lock left by a killed run is taken over with a warning."""
 
@@ -14,7 +14,7 @@ import pytest
 from omegaconf import OmegaConf
 
 from torchrl_auv.training import Run, RunFolderInUse
-from torchrl_auv.training.run_lock import LOCK_FILE, acquire_run_folder, release_run_folder
+from torchrl_auv.training.run.lock import LOCK_FILE, acquire_run_folder, release_run_folder
 
 
 def _cfg(run_dir, resume=None):
@@ -113,7 +113,7 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_warning(tmp_path, capl
         Run(_cfg(run_dir))
     os.kill(holder.pid, signal.SIGKILL)
     holder.join(timeout=60)
-    with caplog.at_level(logging.WARNING, logger="torchrl_auv.training.run_lock"):
+    with caplog.at_level(logging.WARNING, logger="torchrl_auv.training.run.lock"):
         assert Run(_cfg(run_dir)).dir == run_dir
     assert f"pid {holder.pid} " in caplog.text and "no longer running" in caplog.text
     assert f"pid {os.getpid()} " in (run_dir / LOCK_FILE).read_text()

@@ -119,10 +119,3 @@ def _standard_error(values: torch.Tensor) -> float:
     if values.numel() < 2:
         return 0.0
     return (values.std() / values.numel() ** 0.5).item()
-
-
-def _standard_error(values: torch.Tensor) -> float:
-    """Standard error of the mean over scenes (sample std / sqrt(B); 0 for one scene)."""
-    if values.numel() < 2:
-        return 0.0
-    return (values.std() / values.numel() ** 0.5).item()

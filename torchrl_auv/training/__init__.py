@@ -1,4 +1,5 @@
-"""What the training recipes share and users import, one file per thing a recipe builds.
+"""What the training recipes share and users import: one file per thing a recipe builds, and
+two subpackages, the first stage and the run's lifecycle.
 
 ==========================  ========================================================================
 module                      builds
@@ -9,7 +10,8 @@ module                      builds
 ``sac``                     SAC's learner: ``SACLoss``, target updater, optimisers, logged keys
 ``lac``                     LAC's learner: ``LyapunovActorCriticLoss``, target updater, optimisers
 ``learner``                 :class:`Learner`, what one gradient step touches
-``first_stage``             the pretrained proposer (cached artefact per first-stage values)
+``first_stage/``            the pretrained proposer (cached artefact per first-stage values):
+                            config, build, artefact cache
 ``selection``               the proposer + selector policy, ranked candidates, the evaluation rows
 ``candidates``              the selection rule of ``cfg.selection``, the next state's candidates the
                             critics' candidate backup reads
@@ -18,11 +20,8 @@ module                      builds
 ``replay``                  the replay buffer and what it stores of a frame
 ``demonstration_replay``    SAC's expert demonstrations, half of each batch (RLPD)
 ``collectors``              TorchRL collectors: local, worker processes, Ray
-``run``                     :class:`Run`: folder, logger, checkpoint, the loop's batches, final
-                            evaluation
-``progress``                :class:`Progress`, the run's counters (frames, updates)
-``tracking``                the loop's bookkeeping: metrics, progress bar, learning curve
-``episode_video``           one held-out episode as top-view frames and an mp4 (eval.video_steps)
+``run/``                    :class:`Run` and what it owns: folder and its lock, logger, checkpoints,
+                            counters (:class:`Progress`), the loop's bookkeeping, summary, video
 (re-exported)               held-out evaluation (:mod:`torchrl_auv.evaluation`, its own layer)
 ==========================  ========================================================================
 
@@ -47,7 +46,6 @@ from torchrl_auv.evaluation import (
     reference_policies,
 )
 from torchrl_auv.training._extra import RECIPES_PACKAGES  # first: names the extra if missing
-from torchrl_auv.training.artefacts import ArtefactCache, values_key
 from torchrl_auv.training.candidates import (
     CANDIDATE_KEYS,
     CANDIDATES,
@@ -59,11 +57,6 @@ from torchrl_auv.training.candidates import (
     selection_rule_from_config,
     start_deviating,
     with_next_candidates,
-)
-from torchrl_auv.training.checkpointing import (
-    ProgressState,
-    make_checkpoint,
-    resume_latest,
 )
 from torchrl_auv.training.collectors import (
     COLLECTOR_BACKENDS,
@@ -88,15 +81,16 @@ from torchrl_auv.training.env import (
     make_env,
     make_history_env,
 )
-from torchrl_auv.training.episode_video import episode_frames, write_episode_video
 from torchrl_auv.training.first_stage import (
     FIRST_STAGE_VERSION,
+    ArtefactCache,
     FirstStage,
     build_first_stage,
     first_stage_frames,
     first_stage_from_config,
     first_stage_values,
     proposer_from_config,
+    values_key,
 )
 from torchrl_auv.training.keys import (
     ACTION,
@@ -117,13 +111,6 @@ from torchrl_auv.training.lac import (
     make_lac_loss,
 )
 from torchrl_auv.training.learner import Learner, gradient_step
-from torchrl_auv.training.loggers import (
-    close_logger,
-    log_metrics,
-    logger_from_config,
-    make_logger,
-    truncate_curve,
-)
 from torchrl_auv.training.networks import (
     ObsActionMLP,
     critic_layer_norm,
@@ -132,7 +119,6 @@ from torchrl_auv.training.networks import (
     make_q_critic,
     observation_action_dims,
 )
-from torchrl_auv.training.progress import Progress
 from torchrl_auv.training.proposer_finetuning import (
     ProposerFineTuning,
     candidate_weights,
@@ -159,15 +145,39 @@ from torchrl_auv.training.residual import (
     residual_policy,
     with_next_prior,
 )
-from torchrl_auv.training.run import Run
-from torchrl_auv.training.run_lock import RunFolderInUse
+from torchrl_auv.training.run import (
+    EPISODE_METRICS,
+    Progress,
+    ProgressState,
+    Run,
+    RunFolderInUse,
+    RunTracker,
+    VerifiedRotation,
+    batch_metrics,
+    checkpoint_problems,
+    close_logger,
+    configure_threads,
+    episode_frames,
+    log_metrics,
+    logger_from_config,
+    make_checkpoint,
+    make_logger,
+    peak_rss_mb,
+    progress_postfix,
+    resume_latest,
+    seed_everything,
+    truncate_curve,
+    write_episode_video,
+    write_eval,
+    write_summary,
+)
 from torchrl_auv.training.sac import (
     SAC_LOGGED_KEYS,
     make_sac_loss,
     sac_from_config,
     sac_optimisers,
 )
-from torchrl_auv.training.seeding import configure_threads, seed_everything
+from torchrl_auv.training.schemas import SCHEMAS, ProposerConfig, register_schemas
 from torchrl_auv.training.selection import (
     RankedCandidate,
     acting_actor,
@@ -176,15 +186,6 @@ from torchrl_auv.training.selection import (
     make_selection_policy,
     proposer_alone,
 )
-from torchrl_auv.training.summary import write_eval, write_summary
-from torchrl_auv.training.tracking import (
-    EPISODE_METRICS,
-    RunTracker,
-    batch_metrics,
-    peak_rss_mb,
-    progress_postfix,
-)
-from torchrl_auv.training.verified_rotation import VerifiedRotation, checkpoint_problems
 
 __all__ = [
     "ACTION",
@@ -210,6 +211,7 @@ __all__ = [
     "REPLAY_KEYS",
     "RESIDUAL_KEYS",
     "SAC_LOGGED_KEYS",
+    "SCHEMAS",
     "AdvisorLoop",
     "ArtefactCache",
     "FirstStage",
@@ -217,6 +219,7 @@ __all__ = [
     "ObsActionMLP",
     "Progress",
     "ProgressState",
+    "ProposerConfig",
     "ProposerFineTuning",
     "RankedCandidate",
     "Run",
@@ -292,6 +295,7 @@ __all__ = [
     "proposer_from_config",
     "random_policy",
     "reference_policies",
+    "register_schemas",
     "residual_bound",
     "residual_policy",
     "resume_latest",
@@ -312,3 +316,5 @@ __all__ = [
     "write_eval",
     "write_summary",
 ]
+
+register_schemas()  # the recipes' configs name the typed group schemas

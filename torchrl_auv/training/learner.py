@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import torch
 from tensordict import TensorDictBase
 
-from torchrl_auv.training.progress import Progress
+from torchrl_auv.training.run.progress import Progress
 
 __all__ = ["Learner", "gradient_step"]
 

@@ -46,7 +46,7 @@ from torchrl_auv.envs.demonstrations import load_demonstrations
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.objectives import DenoisingLoss
 from torchrl_auv.training.candidates import CANDIDATES
-from torchrl_auv.training.first_stage_build import demonstrations_with_env_keys
+from torchrl_auv.training.first_stage.build import demonstrations_with_env_keys
 from torchrl_auv.training.keys import AGENTS
 
 __all__ = [

@@ -2,7 +2,7 @@
 
 :func:`make_checkpoint` registers what a training run must restore (modules, optimisers, the
 run's counters, the global RNG states) with TorchRL's :class:`~torchrl.checkpoint.Checkpoint`;
-:class:`~torchrl_auv.training.verified_rotation.VerifiedRotation` (TorchRL's rotation with a
+:class:`~torchrl_auv.training.run.verified_rotation.VerifiedRotation` (TorchRL's rotation with a
 size and SHA-256 per file) keeps the newest ``keep_last`` under ``run_dir/checkpoints``. A run
 killed at any moment (even SIGKILL) resumes from the newest complete checkpoint: a checkpoint is
 published by renaming it into place, so a save cut short leaves no partial entry; one damaged
@@ -11,7 +11,7 @@ intact one.
 
 Examples:
     >>> import tempfile, torch
-    >>> from torchrl_auv.training.progress import Progress
+    >>> from torchrl_auv.training.run.progress import Progress
     >>> net, progress = torch.nn.Linear(2, 1), Progress()
     >>> with tempfile.TemporaryDirectory() as run_dir:
     ...     ckpt, rotation = make_checkpoint(run_dir, modules={"net": net}, progress=progress)
@@ -31,8 +31,8 @@ from pathlib import Path
 
 from torchrl.checkpoint import Checkpoint, CheckpointError, GlobalRNGState
 
-from torchrl_auv.training.progress import Progress
-from torchrl_auv.training.verified_rotation import (
+from torchrl_auv.training.run.progress import Progress
+from torchrl_auv.training.run.verified_rotation import (
     CHECKSUMS,
     VerifiedRotation,
     checkpoint_problems,

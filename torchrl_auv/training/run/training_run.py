@@ -31,24 +31,27 @@ import logging
 import time
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from omegaconf import DictConfig, OmegaConf
 from torchrl.checkpoint import Checkpoint
 
 from torchrl_auv.evaluation import evaluate
-from torchrl_auv.training.checkpointing import make_checkpoint, resume_latest
 from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.env import held_out_env
-from torchrl_auv.training.episode_video import episode_frames, write_episode_video
-from torchrl_auv.training.learner import Learner
-from torchrl_auv.training.loggers import close_logger, log_metrics, logger_from_config
-from torchrl_auv.training.progress import Progress
-from torchrl_auv.training.run_folder import hydra_folder, remove_if_unused, write_hydra_files
-from torchrl_auv.training.run_lock import LOCK_FILE, acquire_run_folder, release_run_folder
-from torchrl_auv.training.seeding import configure_threads, seed_everything
-from torchrl_auv.training.summary import SUMMARY_COLUMNS, write_eval, write_summary
-from torchrl_auv.training.tracking import RunTracker
-from torchrl_auv.training.verified_rotation import VerifiedRotation
+from torchrl_auv.training.run.checkpointing import make_checkpoint, resume_latest
+from torchrl_auv.training.run.episode_video import episode_frames, write_episode_video
+from torchrl_auv.training.run.folder import hydra_folder, remove_if_unused, write_hydra_files
+from torchrl_auv.training.run.lock import LOCK_FILE, acquire_run_folder, release_run_folder
+from torchrl_auv.training.run.loggers import close_logger, log_metrics, logger_from_config
+from torchrl_auv.training.run.progress import Progress
+from torchrl_auv.training.run.seeding import configure_threads, seed_everything
+from torchrl_auv.training.run.summary import SUMMARY_COLUMNS, write_eval, write_summary
+from torchrl_auv.training.run.tracking import RunTracker
+from torchrl_auv.training.run.verified_rotation import VerifiedRotation
+
+if TYPE_CHECKING:  # a type only: learner.py imports this package (Progress)
+    from torchrl_auv.training.learner import Learner
 
 __all__ = ["Run"]
 
@@ -58,12 +61,12 @@ log = logging.getLogger(__name__)
 def _start_run(cfg: DictConfig) -> Path:
     """Check the config's values (before any work), pin threads, seed every RNG, create and
     return the run folder (``resume`` when set, else ``run_dir``) with Hydra's ``.hydra/``
-    files. The folder's lock is taken first (:mod:`~torchrl_auv.training.run_lock`): a folder
+    files. The folder's lock is taken first (:mod:`~torchrl_auv.training.run.lock`): a folder
     another running process holds is refused naming it (:class:`RunFolderInUse`), and the lock
     is held until :func:`_finish_run`. A ``run_dir`` that already holds checkpoints is refused
     without ``resume`` (its checkpoints would be overwritten), and a ``resume`` folder without
     checkpoints is refused too; a refused start writes nothing and removes the empty folder
-    Hydra made for it (:mod:`~torchrl_auv.training.run_folder`)."""
+    Hydra made for it (:mod:`~torchrl_auv.training.run.folder`)."""
     try:
         check_config(resolve_config(cfg))
         run_dir = Path(cfg.resume or cfg.run_dir)

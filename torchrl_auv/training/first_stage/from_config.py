@@ -21,8 +21,8 @@ The artefact is keyed by everything that shapes its weights (:func:`first_stage_
 state, controller, rate model, seed, the demonstrations, the noise model, the pretraining and
 the DAgger rounds) and lives in ``proposer.cache_dir`` (default ``${run_root}/first_stage``)
 under ``<sea>-<controller>-<rate model>-seed<seed>-<hash>``
-(:class:`~torchrl_auv.training.artefacts.ArtefactCache`): jobs with the same values reuse it
-in seconds, other values build their own, a folder whose stored values differ is refused.
+(:class:`~torchrl_auv.training.first_stage.ArtefactCache`): jobs with the same values reuse
+it in seconds, other values build their own, a folder whose stored values differ is refused.
 The acting values (``num_candidates``, ``num_inference_steps``, ``sampler``, ``compile``, and
 the recipes' ``alone_pick``) do not change the weights and are applied after loading, so a
 sweep over them shares one artefact.
@@ -61,8 +61,9 @@ from omegaconf import DictConfig, OmegaConf
 
 from torchrl_auv.envs.data_collection import AGENT_OBSERVATION_FEATURES
 from torchrl_auv.modules import DiffusionProposer
-from torchrl_auv.training.artefacts import VALUES_FILE, ArtefactCache, check_values
-from torchrl_auv.training.first_stage_build import build_first_stage
+from torchrl_auv.training.first_stage.artefacts import VALUES_FILE, ArtefactCache, check_values
+from torchrl_auv.training.first_stage.build import build_first_stage
+from torchrl_auv.training.schemas import ProposerConfig
 
 __all__ = [
     "FIRST_STAGE_DEFAULTS",
@@ -83,41 +84,50 @@ FIRST_STAGE_FRAMES_FACT = "first-stage frames (offline: demonstrations and DAgge
 #: Bumped whenever the way a first stage is built changes: older artefacts are then rebuilt.
 FIRST_STAGE_VERSION = 4  # 4: task v3 (the 38-feature observation with the delivery age)
 
-#: The ``proposer`` keys a first stage reads, with the defaults used when a config lacks one
-#: (the paper preset's values: ``recipes/*/paper.yaml`` explain each departure from Table I).
-FIRST_STAGE_DEFAULTS = {
-    "demo_batches": 2,
-    "demo_episodes": 48,
-    "demo_steps": 1000,
-    "horizon": 8,
-    "history": 10,
-    "noise_model": "mlp",
-    "hidden": 256,
-    "cond_dim": 128,
-    "depth": 3,
-    "schedule": "linear",
-    "num_train_steps": 1000,
-    "pretrain_steps": 10000,
-    "batch_size": 256,
-    "lr": 1.0e-3,
-    "lr_schedule": "cosine",
-    "weight_decay": 0.0,
-    "ema_decay": None,
-    "normalize_state": True,
-    "heldout_fraction": 0.1,
-    "dagger_rounds": 1,
-    "dagger_batches": 2,
-    "dagger_inference_steps": 10,
-    "dagger_steps": 4000,
-    "dagger_lr": 3.0e-4,
-}
+#: The ``proposer`` keys a first stage is keyed by (:func:`first_stage_values`).
+FIRST_STAGE_KEYS = (
+    "demo_batches",
+    "demo_episodes",
+    "demo_steps",
+    "horizon",
+    "history",
+    "noise_model",
+    "hidden",
+    "cond_dim",
+    "depth",
+    "schedule",
+    "num_train_steps",
+    "pretrain_steps",
+    "batch_size",
+    "lr",
+    "lr_schedule",
+    "weight_decay",
+    "ema_decay",
+    "normalize_state",
+    "heldout_fraction",
+    "dagger_rounds",
+    "dagger_batches",
+    "dagger_inference_steps",
+    "dagger_steps",
+    "dagger_lr",
+)
 #: The acting keys, applied to a loaded proposer (they do not change its weights).
-ACTING_DEFAULTS = {
-    "num_candidates": 5,
-    "num_inference_steps": 50,
-    "sampler": "ddpm",
-    "compile": False,
-}
+ACTING_KEYS = ("num_candidates", "num_inference_steps", "sampler", "compile")
+
+
+def _schema_defaults(keys: tuple[str, ...]) -> dict:
+    """The :class:`~torchrl_auv.training.ProposerConfig` defaults of ``keys`` (the one
+    definition of the group's values; ``dagger_rounds``, an interpolation there, is resolved
+    per sea by :func:`first_stage_values`)."""
+    schema = ProposerConfig()
+    return {k: getattr(schema, k) for k in keys if k != "dagger_rounds"}
+
+
+#: What a config without one of :data:`FIRST_STAGE_KEYS` gets: the schema's value (the paper
+#: preset's).
+FIRST_STAGE_DEFAULTS = _schema_defaults(FIRST_STAGE_KEYS)
+#: ... and without one of :data:`ACTING_KEYS`.
+ACTING_DEFAULTS = _schema_defaults(ACTING_KEYS)
 
 
 def _plain(cfg) -> dict:
@@ -164,15 +174,25 @@ def _check(p: Mapping) -> None:
 def first_stage_values(cfg: Mapping | DictConfig) -> dict:
     """What a first stage is keyed by, from a recipe config (``seed``, ``env.controller``,
     ``env.rate_model`` and the ``proposer`` group; missing keys take
-    :data:`FIRST_STAGE_DEFAULTS`): a JSON-able dict, hashed for the artefact's folder."""
+    :data:`FIRST_STAGE_DEFAULTS`, a missing ``dagger_rounds`` the schema's rounds for the
+    demonstrations' sea): a JSON-able dict, hashed for the artefact's folder."""
     cfg = _plain(cfg)
-    p = {**FIRST_STAGE_DEFAULTS, **cfg.get("proposer", {})}
-    _check(p)
     env = cfg.get("env", {})
+    p = {**FIRST_STAGE_DEFAULTS, **cfg.get("proposer", {})}
+    sea = p.get("demo_sea_state") or env.get("sea_state", "ideal")
+    if "dagger_rounds" not in p:  # the schema's rounds for the demonstrations' sea
+        per_sea = p.get("dagger_rounds_per_sea") or ProposerConfig().dagger_rounds_per_sea
+        if sea not in per_sea:
+            raise ValueError(
+                f"proposer.dagger_rounds_per_sea has no entry for the sea {sea!r} "
+                f"(it has {sorted(per_sea)}): add one, or set proposer.dagger_rounds"
+            )
+        p["dagger_rounds"] = per_sea[sea]
+    _check(p)
     pick = lambda *keys: {k: p[k] for k in keys}  # noqa: E731
     return {
         "version": FIRST_STAGE_VERSION,
-        "sea_state": p.get("demo_sea_state") or env.get("sea_state", "ideal"),
+        "sea_state": sea,
         "controller": env.get("controller", "s_surface"),
         "rate_model": env.get("rate_model", "shannon"),
         "seed": int(cfg.get("seed", 0)),

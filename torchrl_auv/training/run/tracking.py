@@ -25,8 +25,8 @@ from tensordict import TensorDictBase
 
 from torchrl_auv.evaluation import RowWorker, evaluate
 from torchrl_auv.training.env import held_out_env
-from torchrl_auv.training.loggers import log_metrics, truncate_curve
-from torchrl_auv.training.summary import SUMMARY_COLUMNS
+from torchrl_auv.training.run.loggers import log_metrics, truncate_curve
+from torchrl_auv.training.run.summary import SUMMARY_COLUMNS
 
 __all__ = ["EPISODE_METRICS", "RunTracker", "batch_metrics", "peak_rss_mb", "progress_postfix"]
 
