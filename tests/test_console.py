@@ -93,7 +93,11 @@ def test_train_help_names_the_frameworks_presets_and_sweeps_it_takes():
     )
     assert done.returncode == 0, done.stderr[-3000:]
     choices, config = done.stdout.split("== Config", 1)
-    frameworks = sorted(p.stem for p in (recipes_dir() / "framework").glob("*.yaml"))
+    frameworks = [  # every folder of recipes/ with a train.py and a paper.yaml
+        p.parent.name
+        for p in recipes_dir().glob("*/train.py")
+        if (p.parent / "paper.yaml").is_file()
+    ]
     presets = sorted(p.stem for p in (recipes_dir() / "preset").glob("*.yaml"))
     sweeps = [p.stem for p in (recipes_dir() / "sweeps").glob("*.yaml") if p.stem[0] != "_"]
     assert f"framework={'|'.join(sorted(frameworks, key=choices.index))}" in choices

@@ -2,9 +2,8 @@
 
 A :class:`~concurrent.futures.ProcessPoolExecutor` worker waits on its job queue until the
 pool shuts it down; a parent killed by ``SIGKILL`` (or by ``SIGTERM``, whose default action
-skips the shutdown) never does, and its workers run on as orphans (measured: the demonstration
-workers of a killed first-stage build were still collecting 30 minutes later, the evaluation
-workers of a killed training run 180 s later). Pass :func:`end_with_parent` as the pool's
+skips the shutdown) never does, and its workers run on as orphans (``docs/design_notes.md``,
+worker processes). Pass :func:`end_with_parent` as the pool's
 ``initializer`` with the parent's pid in ``initargs`` (or call it from one): the worker ends
 itself within ``every_s`` of its parent's death, also one that died while the worker started.
 

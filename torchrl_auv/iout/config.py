@@ -40,9 +40,9 @@ class IoUTConfig:
             until it is served. A torpedo-shaped AUV cannot turn on the spot, so how it
             arrives at a node decides whether it can hold station there in a current (bow
             into it, :mod:`~torchrl_auv.iout.station_keeping`); re-targeting every decision
-            starts services at whatever node the AUV happens to pass, from any direction
-            (measured with the expert in ``es``: half the services started more than 45 deg
-            off the upstream heading, and only 63 % ended within the service radius).
+            starts services at whatever node the AUV happens to pass, from any direction,
+            and fewer of them end within the service radius (measured:
+            ``docs/design_notes.md``, the expert).
         refill_fraction: a node is eligible as a target again once its buffer holds at
             least this fraction of ``C_max`` (ours, spec v2: 10 %); a node is never a target
             while it is emptier, so an AUV cannot farm services on a just-emptied node.

@@ -24,8 +24,8 @@ arrives and where it turns:
   comes within 18 m of its node, and one that starts bow downstream must turn round on a
   40 m circle: the heuristic this replaced (steer for the point ``downstream_offset_m``
   behind the node, go round it within ``avoid_radius_m``) came through the node bow
-  downstream in about one service in six in ``es`` (shannon rate, seed 0), and half of those
-  services ended outside the service radius.
+  downstream, and such services often ended outside the service radius (measured:
+  ``docs/design_notes.md``, the expert).
 * It steers for a point at least ``edge_clearance_m`` from every edge (up to
   ``max_inward_shift_m`` from a node near an edge), and within ``edge_radius_m`` of an edge
   (``edge_radius_current_m`` in a current) it does not head outward unless the point it steers

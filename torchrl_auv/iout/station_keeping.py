@@ -28,16 +28,14 @@ the surge through the water :math:`w\cos e` (its component along the present hea
 thrust that holds :math:`w\cos e` in still water (at :math:`597\,\mathrm{rpm}` per m/s, the
 model's steady rpm) inverted at that speed
 (:func:`~torchrl_auv.physics.remus100.rpm_for_thrust`). The model's propeller sees the speed
-over ground, so a vehicle held still against a current needs about a third fewer rpm than
-the still-water rule gives (measured on the model: 250 rpm hold it against 0.65 m/s, where
-the rule gives 392); with the still-water rule it crept upstream out of the service radius.
-The still-water rule itself is linear and under-drives at low speed (held against 0.5 m/s
-the vehicle drifts back at 0.07 m/s, against 0.3 m/s at 0.19 m/s), which the position
-feedback makes up for. The propeller turns at ``turn_rpm`` while
-the heading error exceeds 45 deg (the fins need flow to turn), and stops when :math:`|w|` is
-below ``min_water_speed_mps`` (no current and on station: the vehicle coasts, the neutrally
-buoyant hull keeps its depth). Depth: ``altitude_m`` above the seabed from the altimeter, or
-above the node where the altimeter has no reading.
+over ground, so a vehicle held still against a current needs fewer rpm than the still-water
+rule gives; with the still-water rule it crept upstream out of the service radius. The
+still-water rule itself is linear and under-drives at low speed, which the position feedback
+makes up for (both measured: ``docs/design_notes.md``, station keeping). The propeller
+turns at ``turn_rpm`` while the heading error exceeds 45 deg (the fins need flow to turn),
+and stops when :math:`|w|` is below ``min_water_speed_mps`` (no current and on station: the
+vehicle coasts, the neutrally buoyant hull keeps its depth). Depth: ``altitude_m`` above the
+seabed from the altimeter, or above the node where the altimeter has no reading.
 
 In a current the vehicle thus ends up bow into it, making way through the water at the
 current's speed (the propeller must beat 1 m/s in ``ves``). An AUV that starts its service
@@ -157,8 +155,7 @@ def station_keeping_setpoints(
             horizontal radius left at the vehicle's height above the node,
             :math:`\sqrt{r^2 - h^2}`: a vehicle that could not yet descend (the fins need
             flow) is held closer. Not in still water, where the vehicle coasts rather than
-            turn round and a smaller band measured worse (ideal, seed 0: services ending
-            inside 96.6 % against 97.5 % without it).
+            turn round and a smaller band measured worse (``docs/design_notes.md``).
 
     Returns:
         ``(depth, heading, rpm)`` setpoints, each ``[*B]`` (m, rad, rpm).
