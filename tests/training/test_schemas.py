@@ -11,10 +11,28 @@ from hydra.errors import ConfigCompositionException
 from omegaconf import OmegaConf
 from omegaconf.errors import ConfigAttributeError, ValidationError
 
-from torchrl_auv.training import ProposerConfig, first_stage_values
+from torchrl_auv.training import (
+    ProposerConfig,
+    ReplayBufferConfig,
+    ResidualConfig,
+    SelectionConfig,
+    first_stage_values,
+)
 
 RECIPES = Path(__file__).resolve().parents[2] / "recipes"
 DIFFUSION_RECIPES = ["diffusion", "diffusion_rl", "diffusion_lac"]
+
+
+#: (recipe, group, schema): every group a recipe composes from a schema
+COMPOSED = [
+    *[(r, "proposer", ProposerConfig) for r in DIFFUSION_RECIPES],
+    *[(r, "replay_buffer", ReplayBufferConfig) for r in ("sac", "diffusion_rl", "diffusion_lac")],
+    *[
+        (r, g, c)
+        for r in ("diffusion_rl", "diffusion_lac")
+        for g, c in (("selection", SelectionConfig), ("residual", ResidualConfig))
+    ],
+]
 
 
 def _compose(recipe: str, overrides: list[str], preset: str = "paper"):
@@ -22,16 +40,16 @@ def _compose(recipe: str, overrides: list[str], preset: str = "paper"):
         return compose(preset, overrides)
 
 
-@pytest.mark.parametrize("recipe", DIFFUSION_RECIPES)
-def test_every_diffusion_recipe_composes_the_proposer_schema(recipe):
+@pytest.mark.parametrize(("recipe", "group", "schema"), COMPOSED)
+def test_every_recipe_composes_its_groups_schemas(recipe, group, schema):
     cfg = _compose(recipe, [])
-    assert OmegaConf.get_type(cfg.proposer) is ProposerConfig
+    assert OmegaConf.get_type(cfg[group]) is schema
     # the group's values are the schema's, but for what the preset sets itself
-    schema = OmegaConf.to_container(OmegaConf.structured(ProposerConfig))
-    group = OmegaConf.to_container(cfg.proposer)
-    assert group.keys() == schema.keys()
-    differing = {key for key in schema if schema[key] != group[key]}
-    assert differing == {"compile"}
+    defaults = OmegaConf.to_container(OmegaConf.structured(schema))
+    composed = OmegaConf.to_container(cfg[group])
+    assert composed.keys() == defaults.keys()
+    differing = {key for key in defaults if defaults[key] != composed[key]}
+    assert differing == ({"compile"} if group == "proposer" else set())
 
 
 @pytest.mark.parametrize("recipe", DIFFUSION_RECIPES)

@@ -177,7 +177,14 @@ from torchrl_auv.training.sac import (
     sac_from_config,
     sac_optimisers,
 )
-from torchrl_auv.training.schemas import SCHEMAS, ProposerConfig, register_schemas
+from torchrl_auv.training.schemas import (
+    SCHEMAS,
+    ProposerConfig,
+    ReplayBufferConfig,
+    ResidualConfig,
+    SelectionConfig,
+    register_schemas,
+)
 from torchrl_auv.training.selection import (
     RankedCandidate,
     acting_actor,
@@ -222,10 +229,13 @@ __all__ = [
     "ProposerConfig",
     "ProposerFineTuning",
     "RankedCandidate",
+    "ReplayBufferConfig",
+    "ResidualConfig",
     "Run",
     "RunFolderInUse",
     "RunTracker",
     "SameRowAs",
+    "SelectionConfig",
     "VerifiedRotation",
     "acting_actor",
     "advisor_from_config",

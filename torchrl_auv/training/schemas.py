@@ -13,11 +13,14 @@ refused naming ``proposer.hidden``), refuses a key the schema lacks (a typo), an
 shares one definition instead of a copy of the group. Ranges are checked where a builder reads
 the group (e.g. :func:`~torchrl_auv.training.first_stage_values`).
 
-==============  ======================  =====================================================
-group           name                    schema
-==============  ======================  =====================================================
-``proposer``    ``diffusion``           :class:`ProposerConfig`
-==============  ======================  =====================================================
+==================  ==============  =====================================================
+group               name            schema
+==================  ==============  =====================================================
+``proposer``        ``diffusion``   :class:`ProposerConfig`
+``selection``       ``default``     :class:`SelectionConfig`
+``residual``        ``default``     :class:`ResidualConfig`
+``replay_buffer``   ``default``     :class:`ReplayBufferConfig`
+==================  ==============  =====================================================
 
 Examples:
     >>> from omegaconf import OmegaConf
@@ -38,7 +41,14 @@ from dataclasses import dataclass, field
 
 from hydra.core.config_store import ConfigStore
 
-__all__ = ["SCHEMAS", "ProposerConfig", "register_schemas"]
+__all__ = [
+    "SCHEMAS",
+    "ProposerConfig",
+    "ReplayBufferConfig",
+    "ResidualConfig",
+    "SelectionConfig",
+    "register_schemas",
+]
 
 
 def _dagger_rounds_per_sea() -> dict[str, int]:
@@ -99,8 +109,48 @@ class ProposerConfig:
     dagger_lr: float = 3.0e-4  # fine-tuning from the pretrained weights (cosine to 0)
 
 
+@dataclass
+class SelectionConfig:
+    """The ``selection`` group of Diffusion+RL and Diffusion+RL (LAC): which of the proposer's
+    K candidates is executed, and what the critics bootstrap on
+    (:func:`~torchrl_auv.training.selection_rule_from_config`,
+    :func:`~torchrl_auv.training.selection_backup`; ``recipes/README.md``, "The RL stage that
+    acts")."""
+
+    include_actor: bool = False  # the actor's own action competes with the K candidates
+    backup: str = "candidates"  # candidates (the candidate executed at s') | actor (published)
+    anchor: str | None = "medoid"  # medoid: the prior's choice unless beaten | None: the best
+    margin: float = 0.0  # ... by more than the ensemble's disagreement plus this (critic units)
+    warmup_frames: int = 5000  # frames executing the anchor while the critics learn its values
+
+
+@dataclass
+class ResidualConfig:
+    """The ``residual`` group of the same recipes: with ``bound > 0`` the executed learner is a
+    residual actor on the proposer alone's action instead of the selection
+    (:mod:`~torchrl_auv.training.residual`)."""
+
+    bound: float = 0.0  # > 0: the residual's bound (action units); 0: the selection acts
+    coef: float = 1.0  # weight of the pull toward the prior: coef x (residual / bound)^2
+
+
+@dataclass
+class ReplayBufferConfig:
+    """The ``replay_buffer`` group of the RL recipes
+    (:func:`~torchrl_auv.training.buffer_from_config`)."""
+
+    size: int = 1_000_000  # transitions kept
+    batch_size: int = 64  # transitions per gradient step (Table I)
+    storage: str = "memory"  # memory | memmap (under run_dir/replay)
+
+
 #: ``(group, name, schema)`` of every registered schema
-SCHEMAS = (("proposer", "diffusion", ProposerConfig),)
+SCHEMAS = (
+    ("proposer", "diffusion", ProposerConfig),
+    ("selection", "default", SelectionConfig),
+    ("residual", "default", ResidualConfig),
+    ("replay_buffer", "default", ReplayBufferConfig),
+)
 
 
 def register_schemas() -> None:

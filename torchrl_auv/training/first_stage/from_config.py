@@ -84,33 +84,29 @@ FIRST_STAGE_FRAMES_FACT = "first-stage frames (offline: demonstrations and DAgge
 #: Bumped whenever the way a first stage is built changes: older artefacts are then rebuilt.
 FIRST_STAGE_VERSION = 4  # 4: task v3 (the 38-feature observation with the delivery age)
 
-#: The ``proposer`` keys a first stage is keyed by (:func:`first_stage_values`).
-FIRST_STAGE_KEYS = (
-    "demo_batches",
-    "demo_episodes",
-    "demo_steps",
-    "horizon",
-    "history",
-    "noise_model",
-    "hidden",
-    "cond_dim",
-    "depth",
-    "schedule",
-    "num_train_steps",
-    "pretrain_steps",
-    "batch_size",
-    "lr",
-    "lr_schedule",
-    "weight_decay",
-    "ema_decay",
-    "normalize_state",
-    "heldout_fraction",
-    "dagger_rounds",
-    "dagger_batches",
-    "dagger_inference_steps",
-    "dagger_steps",
-    "dagger_lr",
-)
+#: The ``proposer`` keys a first stage is keyed by (:func:`first_stage_values`), by section.
+FIRST_STAGE_SECTIONS = {
+    "demonstrations": ("demo_batches", "demo_episodes", "demo_steps", "horizon", "history"),
+    "model": ("noise_model", "hidden", "cond_dim", "depth", "schedule", "num_train_steps"),
+    "pretraining": (
+        "pretrain_steps",
+        "batch_size",
+        "lr",
+        "lr_schedule",
+        "weight_decay",
+        "ema_decay",
+        "normalize_state",
+        "heldout_fraction",
+    ),
+    "dagger": (
+        "dagger_rounds",
+        "dagger_batches",
+        "dagger_inference_steps",
+        "dagger_steps",
+        "dagger_lr",
+    ),
+}
+FIRST_STAGE_KEYS = tuple(key for keys in FIRST_STAGE_SECTIONS.values() for key in keys)
 #: The acting keys, applied to a loaded proposer (they do not change its weights).
 ACTING_KEYS = ("num_candidates", "num_inference_steps", "sampler", "compile")
 
@@ -189,28 +185,13 @@ def first_stage_values(cfg: Mapping | DictConfig) -> dict:
             )
         p["dagger_rounds"] = per_sea[sea]
     _check(p)
-    pick = lambda *keys: {k: p[k] for k in keys}  # noqa: E731
     return {
         "version": FIRST_STAGE_VERSION,
         "sea_state": sea,
         "controller": env.get("controller", "s_surface"),
         "rate_model": env.get("rate_model", "shannon"),
         "seed": int(cfg.get("seed", 0)),
-        "demonstrations": pick("demo_batches", "demo_episodes", "demo_steps", "horizon", "history"),
-        "model": pick("noise_model", "hidden", "cond_dim", "depth", "schedule", "num_train_steps"),
-        "pretraining": pick(
-            "pretrain_steps",
-            "batch_size",
-            "lr",
-            "lr_schedule",
-            "weight_decay",
-            "ema_decay",
-            "normalize_state",
-            "heldout_fraction",
-        ),
-        "dagger": pick(
-            "dagger_rounds", "dagger_batches", "dagger_inference_steps", "dagger_steps", "dagger_lr"
-        ),
+        **{section: {k: p[k] for k in keys} for section, keys in FIRST_STAGE_SECTIONS.items()},
     }
 
 
