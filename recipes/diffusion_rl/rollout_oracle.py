@@ -86,7 +86,9 @@ def scene_env(sea: str, seed: int, scenes: int, *, copies: int = 1, history: int
 class RolloutOracle(torch.nn.Module):
     """The oracle's policy (module docstring) on ``scenes`` scenes of ``sea``."""
 
-    def __init__(self, proposer, sea, scenes, *, horizon, score, candidates, alone, gamma, auvs):
+    def __init__(
+        self, proposer, sea, scenes, *, horizon, score, candidates, alone, gamma, auvs, seed
+    ):
         super().__init__()
         if score not in ("cost", "sdr"):
             raise ValueError(f"score must be 'cost' or 'sdr', got {score!r}")
@@ -94,7 +96,7 @@ class RolloutOracle(torch.nn.Module):
         self.candidates, self.alone, self.auvs = candidates, alone, auvs
         self.prior = ProposerAlone(proposer, "medoid", action_key=ACTION, num_candidates=alone)
         self.copies = auvs * (candidates + 1)
-        self.rollouts = scene_env(sea, 0, scenes * self.copies, copies=self.copies)
+        self.rollouts = scene_env(sea, seed, scenes * self.copies, copies=self.copies)
         self.chosen: list[torch.Tensor] = []  # [S, N] per decision: the option executed
         self.spread: list[torch.Tensor] = []  # [S, N] per decision: best minus worst score
 
@@ -152,6 +154,7 @@ def main(argv=None) -> dict:
     parser.add_argument("--candidates", type=int, default=5, help="K, the selection's")
     parser.add_argument("--alone", type=int, default=10, help="draws of the prior's medoid")
     parser.add_argument("--gamma", type=float, default=0.99)
+    parser.add_argument("--rollout-seed", type=int, default=12345, help="the copies' draws")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
@@ -173,6 +176,7 @@ def main(argv=None) -> dict:
             alone=args.alone,
             gamma=args.gamma,
             auvs=env.num_auvs,
+            seed=args.rollout_seed,
         )
     began = time.perf_counter()
     with set_exploration_type(ExplorationType.DETERMINISTIC), torch.no_grad():
