@@ -260,11 +260,12 @@ def test_training_speed_counts_sessions_that_trained_and_training_jobs_only(tmp_
 def test_the_pages_k_is_the_paper_presets_number_of_candidates():
     import pathlib
 
-    import yaml
+    from hydra import compose, initialize_config_dir
 
     from torchrl_auv.report.paper.results_page import NUM_CANDIDATES
 
     recipes = pathlib.Path(__file__).resolve().parents[2] / "recipes"
     for framework in ("diffusion_rl", "diffusion_lac"):
-        preset = yaml.safe_load((recipes / framework / "paper.yaml").read_text())
-        assert preset["proposer"]["num_candidates"] == NUM_CANDIDATES, framework
+        with initialize_config_dir(config_dir=str(recipes / framework), version_base="1.3"):
+            preset = compose("paper")
+        assert preset.proposer.num_candidates == NUM_CANDIDATES, framework

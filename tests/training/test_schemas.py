@@ -8,31 +8,17 @@ from pathlib import Path
 import pytest
 from hydra import compose, initialize_config_dir
 from hydra.errors import ConfigCompositionException
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import ConfigAttributeError, ValidationError
 
-from torchrl_auv.training import (
-    ProposerConfig,
-    ReplayBufferConfig,
-    ResidualConfig,
-    SelectionConfig,
-    first_stage_values,
-)
+from torchrl_auv.training import SCHEMAS, ProposerConfig, first_stage_values
 
 RECIPES = Path(__file__).resolve().parents[2] / "recipes"
 DIFFUSION_RECIPES = ["diffusion", "diffusion_rl", "diffusion_lac"]
 
 
-#: (recipe, group, schema): every group a recipe composes from a schema
-COMPOSED = [
-    *[(r, "proposer", ProposerConfig) for r in DIFFUSION_RECIPES],
-    *[(r, "replay_buffer", ReplayBufferConfig) for r in ("sac", "diffusion_rl", "diffusion_lac")],
-    *[
-        (r, g, c)
-        for r in ("diffusion_rl", "diffusion_lac")
-        for g, c in (("selection", SelectionConfig), ("residual", ResidualConfig))
-    ],
-]
+ALL_RECIPES = ["sac", *DIFFUSION_RECIPES]
+SCHEMA_TYPES = {schema for _, _, schema in SCHEMAS}
 
 
 def _compose(recipe: str, overrides: list[str], preset: str = "paper"):
@@ -40,16 +26,13 @@ def _compose(recipe: str, overrides: list[str], preset: str = "paper"):
         return compose(preset, overrides)
 
 
-@pytest.mark.parametrize(("recipe", "group", "schema"), COMPOSED)
-def test_every_recipe_composes_its_groups_schemas(recipe, group, schema):
-    cfg = _compose(recipe, [])
-    assert OmegaConf.get_type(cfg[group]) is schema
-    # the group's values are the schema's, but for what the preset sets itself
-    defaults = OmegaConf.to_container(OmegaConf.structured(schema))
-    composed = OmegaConf.to_container(cfg[group])
-    assert composed.keys() == defaults.keys()
-    differing = {key for key in defaults if defaults[key] != composed[key]}
-    assert differing == ({"compile"} if group == "proposer" else set())
+@pytest.mark.parametrize("preset", ["paper", "quick", "fast"])
+@pytest.mark.parametrize("recipe", ALL_RECIPES)
+def test_every_group_of_every_recipe_is_a_registered_schema(recipe, preset):
+    cfg = _compose(recipe, [], preset)
+    groups = {key: OmegaConf.get_type(cfg[key]) for key in cfg if isinstance(cfg[key], DictConfig)}
+    assert groups, "the recipe has no config group"
+    assert {key: schema for key, schema in groups.items() if schema not in SCHEMA_TYPES} == {}
 
 
 @pytest.mark.parametrize("recipe", DIFFUSION_RECIPES)

@@ -13,14 +13,29 @@ refused naming ``proposer.hidden``), refuses a key the schema lacks (a typo), an
 shares one definition instead of a copy of the group. Ranges are checked where a builder reads
 the group (e.g. :func:`~torchrl_auv.training.first_stage_values`).
 
-==================  ==============  =====================================================
-group               name            schema
-==================  ==============  =====================================================
-``proposer``        ``diffusion``   :class:`ProposerConfig`
-``selection``       ``default``     :class:`SelectionConfig`
-``residual``        ``default``     :class:`ResidualConfig`
-``replay_buffer``   ``default``     :class:`ReplayBufferConfig`
-==================  ==============  =====================================================
+====================  ==============  =====================================
+group                 name            schema
+====================  ==============  =====================================
+``proposer``          ``diffusion``   :class:`ProposerConfig`
+``selection``         ``default``     :class:`SelectionConfig`
+``residual``          ``default``     :class:`ResidualConfig`
+``replay_buffer``     ``default``     :class:`ReplayBufferConfig`
+``env``               ``default``     :class:`EnvConfig`
+``env``               ``history``     :class:`HistoryEnvConfig`
+``collector``         ``default``     :class:`CollectorConfig`
+``optim``             ``sac``         :class:`SACOptimConfig`
+``optim``             ``lac``         :class:`LACOptimConfig`
+``network``           ``default``     :class:`NetworkConfig`
+``network``           ``ensemble``    :class:`EnsembleNetworkConfig`
+``lyapunov``          ``default``     :class:`LyapunovConfig`
+``advisor``           ``default``     :class:`AdvisorConfig`
+``finetune``          ``default``     :class:`FinetuneConfig`
+``demonstrations``    ``default``     :class:`DemonstrationsConfig`
+``logger``            ``default``     :class:`LoggerConfig`
+``checkpoint``        ``default``     :class:`CheckpointConfig`
+``checkpoint``        ``learner``     :class:`LearnerCheckpointConfig`
+``eval``              ``default``     :class:`EvalConfig`
+====================  ==============  =====================================
 
 Examples:
     >>> from omegaconf import OmegaConf
@@ -40,12 +55,28 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING
 
 __all__ = [
     "SCHEMAS",
+    "AdvisorConfig",
+    "CheckpointConfig",
+    "CollectorConfig",
+    "DemonstrationsConfig",
+    "EnsembleNetworkConfig",
+    "EnvConfig",
+    "EvalConfig",
+    "FinetuneConfig",
+    "HistoryEnvConfig",
+    "LACOptimConfig",
+    "LearnerCheckpointConfig",
+    "LoggerConfig",
+    "LyapunovConfig",
+    "NetworkConfig",
     "ProposerConfig",
     "ReplayBufferConfig",
     "ResidualConfig",
+    "SACOptimConfig",
     "SelectionConfig",
     "register_schemas",
 ]
@@ -144,12 +175,197 @@ class ReplayBufferConfig:
     storage: str = "memory"  # memory | memmap (under run_dir/replay)
 
 
+@dataclass
+class EnvConfig:
+    """The ``env`` group: the training scenes (:func:`~torchrl_auv.training.env_from_config`)."""
+
+    sea_state: str = "ves"  # ideal | es | ves
+    controller: str = "s_surface"  # s_surface | pid | smc (the low-level controller)
+    rate_model: str = "shannon"  # the acoustic link's rate model
+    num_envs: int = 8  # scenes per batch (the proposer and the physics batch across them)
+    max_steps: int = 1000  # decisions per episode
+    compile_physics: bool = True  # torch.compile of the decision (minutes once per shape)
+
+
+@dataclass
+class HistoryEnvConfig(EnvConfig):
+    """``env`` of the diffusion recipes: the proposer's state-action history too."""
+
+    history: int = "${proposer.history}"  # type: ignore[assignment]
+
+
+@dataclass
+class CollectorConfig:
+    """The ``collector`` group (:func:`~torchrl_auv.training.collector_from_config`)."""
+
+    total_frames: int = 300_000  # scene-decisions (300 episodes x 1000 decisions)
+    frames_per_batch: int = 1000
+    init_random_frames: int = 0  # uniform random actions first (recipes with a learner)
+    num_workers: int = 1  # > 1: a MultiSyncCollector of this many worker processes
+    backend: str = "local"  # local | ray (num_workers remote collectors on a Ray cluster)
+    ray_address: str | None = None  # ray: "auto", "host:port", "ray://host:port"; None: local
+
+
+@dataclass
+class SACOptimConfig:
+    """The ``optim`` group of the SAC learners (SAC, Diffusion+RL;
+    :func:`~torchrl_auv.training.sac_from_config`)."""
+
+    actor_lr: float = 1.0e-4
+    critic_lr: float = 1.0e-3
+    alpha_lr: float = 3.0e-4  # TorchRL sota SAC's (the paper gives none)
+    alpha_init: float = 1.0
+    updates_per_batch: int = 250
+    gamma: float = 0.99  # Table I: 0.97 (recipes/README.md)
+    tau: float = 0.005
+    loss_function: str = "smooth_l1"  # the Q loss: smooth_l1 (Huber) | l2
+    compile: bool = False  # torch.compile of the update
+
+
+@dataclass
+class LACOptimConfig:
+    """The ``optim`` group of the LAC learner (Diffusion+RL (LAC);
+    :func:`~torchrl_auv.training.lac_from_config`)."""
+
+    actor_lr: float = 1.0e-4
+    critic_lr: float = 1.0e-3
+    dual_lr: float = 1.0e-4  # the Lagrange multiplier's
+    updates_per_batch: int = 250
+    gamma: float = 0.99  # Table I: 0.97 (recipes/README.md)
+    tau: float = 0.005
+    loss_function: str = "smooth_l1"  # the critics' TD loss: smooth_l1 (Huber) | l2 (the paper)
+    compile: bool = False  # torch.compile of the update
+    lambda_max: float = 1.0  # the multiplier's cap
+
+
+@dataclass
+class NetworkConfig:
+    """The ``network`` group: per-AUV actor and critics (:mod:`~torchrl_auv.training.networks`)."""
+
+    hidden: list[int] = field(default_factory=lambda: [256, 256])
+    layer_norm: bool = False  # a LayerNorm in each hidden layer of the critics (RLPD's)
+
+
+@dataclass
+class EnsembleNetworkConfig(NetworkConfig):
+    """``network`` of the learners with a Q ensemble (SAC, Diffusion+RL)."""
+
+    critics: int = 2  # Q networks (SAC's twin: 2); the target takes their min
+
+
+@dataclass
+class LyapunovConfig:
+    """The ``lyapunov`` group of Diffusion+RL (LAC): the spec before the advisor's first
+    consultation (throughout with ``advisor.backend=fixed``) and what the critic learns."""
+
+    form: str = "softplus"  # softplus | squared | log
+    stability_weight: float = 0.1  # alpha of the decrease condition
+    cost: str = "stability"  # stability (0 in service) | task (the paper's; never vanishes)
+
+
+@dataclass
+class AdvisorConfig:
+    """The ``advisor`` group of Diffusion+RL (LAC): who picks the Lyapunov spec during training
+    (:mod:`torchrl_auv.advisor`)."""
+
+    backend: str = "rules"  # rules | fixed | openai (any OpenAI-compatible endpoint)
+    base_url: str = "http://127.0.0.1:8080/v1"
+    model: str = "smollm2"
+    api_key_env: str = "OPENAI_API_KEY"  # the key is read from this variable, never stored
+    cooldown: int = 20_000  # frames between consultations after the start
+    window: int = 5  # collected batches the feedback summarises
+    task: str = MISSING  # the task's text the advisor reads
+    position_indices: list[int] = field(default_factory=lambda: [0, 1, 2])  # target offset
+    velocity_indices: list[int] = field(default_factory=lambda: [23, 24, 25])  # u, v, w
+
+
+@dataclass
+class FinetuneConfig:
+    """The ``finetune`` group of Diffusion+RL: the proposer fine-tuned on its own candidates,
+    weighted by their Q (:mod:`~torchrl_auv.training.proposer_finetuning`; off by default)."""
+
+    steps: int = 0  # > 0: denoising steps after each batch's updates (needs residual.bound 0)
+    batch_size: int = 256  # candidate chunks per step
+    lr: float = 1.0e-4
+    temperature: float = 1.0  # of the softmax over a state's K candidates (the batch's spread)
+    start_frames: int = 5000  # frames before the first step
+    demo_fraction: float = 0.0  # share of each step's chunks from the first stage's samples
+    demo_samples: int = 50_000  # ... drawn once from its demonstrations and DAgger rounds
+
+
+@dataclass
+class DemonstrationsConfig:
+    """The ``demonstrations`` group of SAC: the scripted expert's frames in a buffer of their
+    own, half of every batch (RLPD; :mod:`~torchrl_auv.training.demonstration_replay`)."""
+
+    frames: int = 0  # > 0: the expert's scene-decisions; 0: plain SAC
+
+
+@dataclass
+class LoggerConfig:
+    """The ``logger`` group: a TorchRL logger (:func:`~torchrl_auv.training.logger_from_config`)."""
+
+    backend: str = "wandb"  # wandb | csv | tensorboard, or empty for none
+    offline: bool = True  # wandb: offline (no network, no account)
+    project: str = "torchrl-auv"
+    exp_name: str = MISSING  # the recipe's name
+    group: str | None = None  # wandb group (a sweep sets it to its name)
+
+
+@dataclass
+class CheckpointConfig:
+    """The ``checkpoint`` group (:func:`~torchrl_auv.training.make_checkpoint`)."""
+
+    every_frames: int = 20_000
+    keep_last: int = 2
+
+
+@dataclass
+class LearnerCheckpointConfig(CheckpointConfig):
+    """``checkpoint`` of the recipes with a replay buffer."""
+
+    replay_buffer: bool = False  # also save the buffer (large)
+
+
+@dataclass
+class EvalConfig:
+    """The ``eval`` group: the final held-out evaluation and the learning curve
+    (:meth:`~torchrl_auv.training.Run.evaluate`)."""
+
+    sea_states: list[str] = field(default_factory=lambda: ["ideal", "es", "ves"])
+    seed: int = 100_000  # held out: training scenes use seed, seed + 1, ...
+    num_envs: int = 4  # held-out scenes per sea
+    steps: int = 1000  # decisions per episode
+    workers: int = 2  # rows evaluated side by side in this many processes (the same numbers)
+    every_frames: int | None = 25_000  # the curve: at frame 0 and every this many (None: off)
+    curve_envs: int = 2  # ... on this many held-out scenes of the training sea
+    curve_steps: int = 1000  # ... of this many decisions
+    curve_background: bool = True  # the curve's points in a worker process (the same numbers)
+    video_steps: int = 0  # > 0: eval_episode.mp4 of this many decisions
+    ranks: bool = True  # recipes with a selection: each rank executed alone too (Table II)
+
+
 #: ``(group, name, schema)`` of every registered schema
 SCHEMAS = (
     ("proposer", "diffusion", ProposerConfig),
     ("selection", "default", SelectionConfig),
     ("residual", "default", ResidualConfig),
     ("replay_buffer", "default", ReplayBufferConfig),
+    ("env", "default", EnvConfig),
+    ("env", "history", HistoryEnvConfig),
+    ("collector", "default", CollectorConfig),
+    ("optim", "sac", SACOptimConfig),
+    ("optim", "lac", LACOptimConfig),
+    ("network", "default", NetworkConfig),
+    ("network", "ensemble", EnsembleNetworkConfig),
+    ("lyapunov", "default", LyapunovConfig),
+    ("advisor", "default", AdvisorConfig),
+    ("finetune", "default", FinetuneConfig),
+    ("demonstrations", "default", DemonstrationsConfig),
+    ("logger", "default", LoggerConfig),
+    ("checkpoint", "default", CheckpointConfig),
+    ("checkpoint", "learner", LearnerCheckpointConfig),
+    ("eval", "default", EvalConfig),
 )
 
 

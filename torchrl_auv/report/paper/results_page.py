@@ -39,11 +39,12 @@ from torchrl_auv.report.paper.prior import (
 )
 from torchrl_auv.report.paper.progress import grid_status, sitting_hours
 from torchrl_auv.report.paper.tables import LABELS
+from torchrl_auv.training.schemas import ProposerConfig
 
 __all__ = ["SECTIONS", "write_results_page"]
 
-#: the paper presets' ``proposer.num_candidates`` (the paper's K)
-NUM_CANDIDATES = 5
+#: the paper presets' ``proposer.num_candidates`` (the paper's K): the proposer schema's
+NUM_CANDIDATES = ProposerConfig.num_candidates
 
 #: experiment -> (title, what it shows, its figures, its tables), in the paper's order
 SECTIONS: dict[str, tuple[str, str, tuple[str, ...], tuple[str, ...]]] = {
