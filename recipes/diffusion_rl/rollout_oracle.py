@@ -36,6 +36,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl_auv.envs import DataCollectionEnv, StateActionHistory
 from torchrl_auv.evaluation import episode_stats
 from torchrl_auv.modules import DiffusionProposer, ProposerAlone, medoid_index
+from torchrl_auv.training import make_history_env
 
 OBSERVATION, ACTION = ("agents", "observation"), ("agents", "action")
 SCORES = ("cost", "sdr", "prior")
@@ -68,16 +69,13 @@ class SharedNoiseEnv(DataCollectionEnv):
 
 def scene_env(sea: str, seed: int, scenes: int, *, copies: int = 1, history: int = 10):
     """The held-out scenes as the recipes evaluate them (S-Surface, shannon rate, 1000-decision
-    episodes, the proposer's state-action history)."""
-    kwargs = dict(
-        batch_size=[scenes],
-        sea_state=sea,
-        controller="s_surface",
-        rate_model="shannon",
-        seed=seed,
-        max_steps=1000,
+    episodes, the proposer's state-action history: :func:`~torchrl_auv.training.make_history_env`),
+    in groups of ``copies`` that share their random numbers when ``copies > 1``."""
+    if copies == 1:
+        return make_history_env(sea, history=history, seed=seed, num_envs=scenes, max_steps=1000)
+    env = SharedNoiseEnv(
+        copies=copies, batch_size=[scenes], sea_state=sea, seed=seed, max_steps=1000
     )
-    env = SharedNoiseEnv(copies=copies, **kwargs) if copies > 1 else DataCollectionEnv(**kwargs)
     return TransformedEnv(
         env, StateActionHistory(history, observation_key=OBSERVATION, action_key=ACTION)
     )
