@@ -17,8 +17,8 @@
    ``proposer.alone_candidates``) plus a bounded residual from the actor, which acts
    (``torchrl_auv.training.residual``; no selection, no "RL" or rank rows).
 3. Training: TorchRL's ``SACLoss`` (actor, Q ensemble, temperature; the Q target on the
-   candidate executed at the next state, ``selection.backup``) from a
-   ``TensorDictReplayBuffer`` filled by a ``Collector``, on the executed actions.
+   candidate executed at the next state, ``selection.backup``; ``optim.n_steps``-step returns)
+   from a ``TensorDictReplayBuffer`` filled by a ``Collector``, on the executed actions.
 4. Evaluation on held-out seeds: the framework, each candidate rank on its own (OA, CA1, ...),
    the actor alone ("RL"), the proposer alone, the scripted expert and random actions.
 """
@@ -79,6 +79,7 @@ def main(cfg: DictConfig) -> None:
     tuned = {"proposer": proposer, "finetune": finetune} if finetune else None
     remaining = run.restore(learner, buffer, modules=tuned)  # resume: the newest checkpoint
     next_keys = training.next_state_keys(cfg)  # what the critics' backup reads of s'
+    n_step = training.n_step_from_config(cfg)  # optim.n_steps > 1: n-step returns
     if not bound:
         training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
@@ -89,7 +90,10 @@ def main(cfg: DictConfig) -> None:
             training.with_next_prior(data, policy[0])
         elif next_keys:  # the next state's candidates, for the critics' backup
             training.with_next_candidates(data, proposer)
-        buffer.extend(training.select_for_replay(data, next_keys))
+        stored = training.select_for_replay(data, next_keys, n_step=n_step)
+        if stored is None:  # n-step returns need n_steps + 1 decisions per scene first
+            continue
+        buffer.extend(stored)
         for _ in range(cfg.optim.updates_per_batch):
             out = learner.step(buffer.sample().to(cfg.device))
         metrics = learner.metrics(out)

@@ -37,9 +37,12 @@ def main(cfg: DictConfig) -> None:
     collector = training.collector_from_config(
         cfg, actor, env=env, total_frames=max(remaining, 1), init_random_frames=random_frames
     )
+    n_step = training.n_step_from_config(cfg)  # optim.n_steps > 1: n-step returns
     stored_bytes = None
     for data in run.collect(collector, eval_policy=actor):  # counts the batch's frames
-        stored = training.select_for_replay(data)
+        stored = training.select_for_replay(data, n_step=n_step)
+        if stored is None:  # n-step returns need n_steps + 1 decisions per scene first
+            continue
         stored_bytes = stored_bytes or training.bytes_per_frame(stored[0])
         buffer.extend(stored)
         if run.progress.frames >= cfg.collector.init_random_frames:

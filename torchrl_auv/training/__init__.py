@@ -18,6 +18,7 @@ module                      builds
 ``residual``                the executed learner: a bounded residual actor on the prior's choice
 ``proposer_finetuning``     the proposer fine-tuned on its own candidates, weighted by the critic
 ``replay``                  the replay buffer and what it stores of a frame
+``n_step``                  n-step returns for the Q critics (TorchRL's ``MultiStepTransform``)
 ``demonstration_replay``    SAC's expert demonstrations, half of each batch (RLPD)
 ``collectors``              TorchRL collectors: local, worker processes, Ray
 ``run/``                    :class:`Run` and what it owns: folder and its lock, logger, checkpoints,
@@ -111,6 +112,12 @@ from torchrl_auv.training.lac import (
     make_lac_loss,
 )
 from torchrl_auv.training.learner import Learner, gradient_step
+from torchrl_auv.training.n_step import (
+    N_STEP_KEYS,
+    N_STEPS_KEY,
+    NStepReturns,
+    n_step_from_config,
+)
 from torchrl_auv.training.networks import (
     ObsActionMLP,
     critic_layer_norm,
@@ -225,6 +232,8 @@ __all__ = [
     "NEXT_ANCHOR",
     "NEXT_CANDIDATES",
     "NEXT_PRIOR_ACTION",
+    "N_STEPS_KEY",
+    "N_STEP_KEYS",
     "OBSERVATION",
     "POLICIES",
     "PRIOR_ACTION",
@@ -251,6 +260,7 @@ __all__ = [
     "LearnerCheckpointConfig",
     "LoggerConfig",
     "LyapunovConfig",
+    "NStepReturns",
     "NetworkConfig",
     "ObsActionMLP",
     "Progress",
@@ -326,6 +336,7 @@ __all__ = [
     "make_residual_actor",
     "make_sac_loss",
     "make_selection_policy",
+    "n_step_from_config",
     "next_state_keys",
     "next_state_values",
     "observation_action_dims",

@@ -31,6 +31,7 @@ from torchrl.data import LazyTensorStorage, ReplayBufferEnsemble, TensorDictRepl
 from torchrl_auv.evaluation import expert_policy
 from torchrl_auv.training.collectors import make_collector
 from torchrl_auv.training.env import env_factory
+from torchrl_auv.training.n_step import n_step_from_config
 from torchrl_auv.training.replay import select_for_replay
 
 __all__ = [
@@ -58,14 +59,17 @@ def collect_demonstrations(cfg: Mapping, frames: int) -> TensorDictBase:
     """``frames`` frames of the scripted expert on the training env's settings (scenes seeded
     ``cfg.seed + DEMONSTRATION_SEED_OFFSET``), as the replay buffer stores them
     (:func:`~torchrl_auv.training.select_for_replay`), ``[frames']`` with ``frames'`` the
-    collector's batches covering ``frames``."""
+    collector's batches covering ``frames``; with ``cfg.optim.n_steps > 1`` as n-step returns
+    like the online frames (each scene's last ``n_steps`` decisions then not stored)."""
     env = env_factory(cfg)(seed=cfg["seed"] + DEMONSTRATION_SEED_OFFSET)
     batch = cfg["collector"]["frames_per_batch"]
     collector = make_collector(
         env, expert_policy(env), frames_per_batch=batch, total_frames=frames, device=cfg["device"]
     )
+    n_step = n_step_from_config(cfg)  # its own window: the demonstrations' scenes
     try:
-        return torch.cat([select_for_replay(data) for data in collector])
+        stored = (select_for_replay(data, n_step=n_step) for data in collector)
+        return torch.cat([chunk for chunk in stored if chunk is not None])
     finally:
         collector.shutdown()
 

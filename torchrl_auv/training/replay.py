@@ -18,6 +18,7 @@ from torchrl.data import LazyMemmapStorage, LazyTensorStorage, TensorDictReplayB
 
 from torchrl_auv.envs.keys import AGENT_COST, AGENT_REWARD, AGENT_STABILITY_COST
 from torchrl_auv.training.keys import ACTION, AGENTS, OBSERVATION
+from torchrl_auv.training.n_step import EPISODE_DONE, N_STEP_KEYS, NStepReturns
 
 __all__ = [
     "REPLAY_KEYS",
@@ -40,10 +41,22 @@ REPLAY_KEYS = (
 )
 
 
-def select_for_replay(data: TensorDictBase, extra_keys: Sequence = ()) -> TensorDictBase:
+def select_for_replay(
+    data: TensorDictBase, extra_keys: Sequence = (), *, n_step: NStepReturns | None = None
+) -> TensorDictBase | None:
     """The frames of a collected batch with only :data:`REPLAY_KEYS` (and ``extra_keys``, e.g.
-    :data:`~torchrl_auv.training.CANDIDATE_KEYS`), flattened to ``[frames]``."""
-    return data.select(*REPLAY_KEYS, *extra_keys).reshape(-1)
+    :data:`~torchrl_auv.training.CANDIDATE_KEYS`), flattened to ``[frames]``.
+
+    With ``n_step`` (a batch ``[*B, T]``, time last) the frames carry n-step returns
+    (:class:`~torchrl_auv.training.NStepReturns`, which keeps the last frames of each scene
+    for the next batch) and :data:`~torchrl_auv.training.N_STEP_KEYS`; ``None`` while it has
+    seen too few decisions to return any."""
+    if n_step is None:
+        return data.select(*REPLAY_KEYS, *extra_keys).reshape(-1)
+    out = n_step(data.select(*REPLAY_KEYS, *extra_keys, ("next", EPISODE_DONE)))
+    if out is None:
+        return None
+    return out.select(*REPLAY_KEYS, *extra_keys, *N_STEP_KEYS).reshape(-1)
 
 
 def bytes_per_frame(frame: TensorDictBase) -> int:

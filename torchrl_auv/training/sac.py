@@ -23,6 +23,7 @@ from torchrl_auv.envs import DataCollectionEnv
 from torchrl_auv.objectives import CandidateBackupSACLoss, ResidualSACLoss, SelectionRule
 from torchrl_auv.training.keys import ACTION, AGENTS, Q_VALUE
 from torchrl_auv.training.learner import Learner
+from torchrl_auv.training.n_step import N_STEPS_KEY
 from torchrl_auv.training.networks import (
     critic_layer_norm,
     make_q_critic,
@@ -52,7 +53,9 @@ def make_sac_loss(
 ) -> tuple[SACLoss, SoftUpdate]:
     """TorchRL's ``SACLoss`` on the agents layout (reward ``== -cost``) and its target updater.
 
-    The target entropy is ``-action_dim`` per AUV; ``loss_function`` is SACLoss's Q loss
+    The target entropy is ``-action_dim`` per AUV; frames with n-step returns
+    (:class:`~torchrl_auv.training.NStepReturns`) are discounted by ``gamma`` to their own
+    number of steps; ``loss_function`` is SACLoss's Q loss
     (``smooth_l1``, SACLoss's own default, or ``l2``). ``backup="candidates"``: the Q target
     bootstraps on the candidate the selector (``rule``) executes at the next state
     (:class:`~torchrl_auv.objectives.CandidateBackupSACLoss`, a ``SACLoss``).
@@ -83,6 +86,8 @@ def make_sac_loss(
         anchor=(AGENTS, "proposer", "medoid"),
     )
     loss.make_value_estimator(gamma=gamma)
+    # n-step frames carry their discount's exponent per AUV; one-step frames lack it (gamma)
+    loss.value_estimator.set_keys(steps_to_next_obs=N_STEPS_KEY)
     return loss, SoftUpdate(loss, tau=tau)
 
 
