@@ -97,7 +97,12 @@ def test_the_anchored_rule_deviates_only_where_the_best_dominates_the_anchor():
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "named"), [({"anchor": "mean"}, "anchor"), ({"margin": -1.0}, "margin")]
+    ("kwargs", "named"),
+    [
+        ({"anchor": "mean"}, "anchor"),
+        ({"margin": -1.0}, "margin"),
+        ({"dominance": "x"}, "dominance"),
+    ],
 )
 def test_a_bad_rule_names_the_argument(kwargs, named):
     with pytest.raises(ValueError, match=named):
@@ -106,20 +111,22 @@ def test_a_bad_rule_names_the_argument(kwargs, named):
 
 # -- the selector with a Q ensemble and an anchor ------------------------------------------------
 class _Scaled(nn.Module):
-    """Q(s, a) = w * a_0: members differ in w only."""
+    """Q(s, a) = w * a_0 + b: members differ in w and b only."""
 
     def __init__(self):
         super().__init__()
         self.w = nn.Parameter(torch.ones(()))
+        self.b = nn.Parameter(torch.zeros(()))
 
     def forward(self, observation, action):
-        return self.w * action[..., :1] + 0 * observation[..., :1]
+        return self.w * action[..., :1] + self.b + 0 * observation[..., :1]
 
 
-def _ensemble(weights):
+def _ensemble(weights, offsets=None):
     net = TensorDictModule(_Scaled(), ["observation", "action"], ["state_action_value"])
     params = TensorDict.from_module(net).expand(len(weights)).clone()
     params["module", "w"] = torch.tensor(weights)
+    params["module", "b"] = torch.tensor(offsets or [0.0] * len(weights))
     from tensordict import TensorDictParams
 
     return QEnsembleCritic(net, TensorDictParams(params))
@@ -140,20 +147,47 @@ def test_the_anchored_selector_keeps_the_medoid_unless_the_ensemble_agrees_on_a_
     plain = CandidateSelector(_ensemble([1.0, -1.0]), mode="q")(td.clone())
     assert ("selector", "anchor") not in plain.keys(True)
     assert plain["selector", "index"].item() == plain["selector", "ranking"][0, 0].item()
+    # members that agree on every advantage but disagree on the state's value by 2: the
+    # intervals overlap (0.9 - 1 < 0.02 + 1), every member's advantage is 0.88
+    shifted = _ensemble([1.0, 1.0], offsets=[-1.0, 1.0])
+    assert CandidateSelector(shifted, mode="q", rule=rule)(td.clone())["selector", "index"] == 3
+    paired = SelectionRule(anchor="medoid", dominance="paired")
+    assert CandidateSelector(shifted, mode="q", rule=paired)(td.clone())["selector", "index"] == 4
+    # ... and not where one member's advantage is negative, nor below the margin
+    opposed = CandidateSelector(_ensemble([1.0, -1.0]), mode="q", rule=paired)(td.clone())
+    assert opposed["selector", "index"] == 3
+    wide = SelectionRule(anchor="medoid", dominance="paired", margin=0.9)
+    assert CandidateSelector(shifted, mode="q", rule=wide)(td.clone())["selector", "index"] == 3
+
+
+def test_the_paired_rule_needs_every_members_advantage():
+    members = torch.tensor([[[0.0, 2.0, 1.0]], [[5.0, 3.0, 4.5]]])  # [n=2, B=1, K=3]
+    lower, upper = members.min(0).values, members.max(0).values
+    paired = SelectionRule(anchor="medoid", dominance="paired")
+    # anchor 0: member 1 prefers it to both others
+    assert paired.choose(lower, upper, torch.tensor([0]), members=members).tolist() == [0]
+    members[1, 0, 1] = 5.0  # now member 1 prefers candidate 1 to 2 by 0.5, member 0 by 1.0
+    assert paired.choose(lower, upper, torch.tensor([2]), members=members).tolist() == [1]
+    paired.deviate.fill_(False)
+    assert paired.choose(lower, upper, torch.tensor([2]), members=members).tolist() == [2]
+    with pytest.raises(ValueError, match="members"):
+        SelectionRule(anchor="medoid", dominance="paired").choose(lower, upper, torch.tensor([2]))
 
 
 # -- CandidateBackupSACLoss ------------------------------------------------------------------------
-@pytest.mark.parametrize("anchor", [None, "medoid"])
-def test_the_sac_target_bootstraps_on_the_executed_candidate(anchor):
+@pytest.mark.parametrize(
+    ("anchor", "dominance"), [(None, "interval"), ("medoid", "interval"), ("medoid", "paired")]
+)
+def test_the_sac_target_bootstraps_on_the_executed_candidate(anchor, dominance):
     torch.manual_seed(0)
-    rule = SelectionRule(anchor=anchor)
+    rule = SelectionRule(anchor=anchor, dominance=dominance)
     loss = CandidateBackupSACLoss(
         _actor(), _critic(), backup="candidates", rule=rule, target_entropy=-float(ACT)
     )
     loss.make_value_estimator(gamma=0.9)
     with torch.no_grad():  # distinct target members
         loss.target_qvalue_network_params["module", "weight"].normal_()
-    td = _batch()
+    td = _batch(n=64)
     nxt = td["next"]
     cands = nxt["proposer", "first_actions"]
     obs = nxt["observation"].unsqueeze(-2).expand(-1, K, -1)
@@ -161,7 +195,10 @@ def test_the_sac_target_bootstraps_on_the_executed_candidate(anchor):
         [_linear(loss.target_qvalue_network_params[i], obs, cands)[..., 0] for i in range(2)]
     )
     lower, upper = members.min(0).values, members.max(0).values
-    index = rule.choose(lower, upper, nxt["proposer", "medoid"])
+    index = rule.choose(lower, upper, nxt["proposer", "medoid"], members=members)
+    if dominance == "paired":  # this batch tells the two rules apart
+        interval = SelectionRule(anchor="medoid").choose(lower, upper, nxt["proposer", "medoid"])
+        assert not torch.equal(index, interval)
     bootstrap = lower.gather(-1, index[:, None])
     expected = nxt["reward"] + 0.9 * (~nxt["terminated"]) * bootstrap
     torch.testing.assert_close(loss._compute_target_v2(td), expected.squeeze(-1))

@@ -32,11 +32,12 @@ from torchrl_auv.modules.noise_models import (
 )
 from torchrl_auv.modules.proposer import DiffusionProposer
 from torchrl_auv.modules.q_ensemble import Q_REDUCTIONS, QEnsembleCritic
-from torchrl_auv.modules.selection_rule import ANCHORS, SelectionRule
+from torchrl_auv.modules.selection_rule import ANCHORS, DOMINANCE, SelectionRule
 
 __all__ = [
     "ANCHORS",
     "CANDIDATE_PICKS",
+    "DOMINANCE",
     "FORMS",
     "PRIORS",
     "Q_REDUCTIONS",

@@ -157,6 +157,13 @@ class CandidateSelector(TensorDictModuleBase):
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """The scores ``[*B, K]`` (:meth:`scores`) and an optimistic bound on them: the
         maximum over the critic's members where it has them (``mode="q"``), else the scores."""
+        return self.member_scores(observation, actions)[:2]
+
+    def member_scores(
+        self, observation: torch.Tensor, actions: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """:meth:`score_bounds` and each member's scores ``[n, *B, K]`` (``n`` = 1 for a
+        critic without members, or the Lyapunov critic)."""
         k = actions.shape[-2]
         obs = observation.unsqueeze(-2).expand(*observation.shape[:-1], k, observation.shape[-1])
         td = TensorDict(
@@ -167,17 +174,17 @@ class CandidateSelector(TensorDictModuleBase):
         if self.mode == "q" and members is not None:
             values = members(td)[..., 0]  # [n, *B, K]
             reduced = values.min(0).values if self.critic.reduce == "min" else values.mean(0)
-            return reduced, values.max(0).values
+            return reduced, values.max(0).values, values
         with torch.no_grad():
             out = self.critic(td)
         raw = out.get(self.critic_out_key, None)
         if raw is None:
             raise self._missing_critic_output(out)
         if self.mode == "q":
-            return raw[..., 0], raw[..., 0]
+            return raw[..., 0], raw[..., 0], raw[..., 0].unsqueeze(0)
         spec = self.spec
         score = -lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
-        return score, score
+        return score, score, score.unsqueeze(0)
 
     def _missing_critic_output(self, out: TensorDictBase) -> KeyError:
         """The error for a critic that did not write ``critic_out_key``: names what it wrote."""
@@ -207,12 +214,12 @@ class CandidateSelector(TensorDictModuleBase):
             if own is None:
                 raise ValueError(f"actor_action_key {self.actor_action_key!r} is missing")
             first = torch.cat([first, own.unsqueeze(-2)], -2)
-        scores, upper = self.score_bounds(observation, first)
+        scores, upper, members = self.member_scores(observation, first)
         ranking = scores.argsort(-1, descending=True)
         index = ranking[..., 0]
         if self.rule.anchored:
             anchor = medoid_index(candidates if chunked else candidates.unsqueeze(-2))
-            index = self.rule.choose(scores, upper, anchor)
+            index = self.rule.choose(scores, upper, anchor, members=members)
             tensordict.set((*self.selector_key, "anchor"), anchor)
         # draws on the generator's device (a CPU generator for a selector on a GPU)
         draw_on = scores.device if self.generator is None else self.generator.device

@@ -154,7 +154,7 @@ class CandidateBackupSACLoss(SACLoss):
             values = self._vmap_qnetworkN0(td, self.target_qvalue_network_params)
             members = values.get(self.tensor_keys.state_action_value)[..., 0]  # [n, ..., K]
             lower, upper = members.min(0).values, members.max(0).values
-            index = self.rule.choose(lower, upper, anchor)
+            index = self.rule.choose(lower, upper, anchor, members=members)
             next_value = lower.gather(-1, index.unsqueeze(-1))  # [..., 1]
             tensordict.set(("next", self.value_estimator.tensor_keys.value), next_value)
             return self.value_estimator.value_estimate(tensordict).squeeze(-1)

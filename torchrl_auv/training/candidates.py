@@ -33,7 +33,7 @@ from tensordict import TensorDictBase
 
 from torchrl_auv.modules import DiffusionProposer
 from torchrl_auv.modules.consensus import medoid_index
-from torchrl_auv.modules.selection_rule import ANCHORS, SelectionRule
+from torchrl_auv.modules.selection_rule import ANCHORS, DOMINANCE, SelectionRule
 from torchrl_auv.objectives.candidate_backup import BACKUPS
 from torchrl_auv.training.keys import AGENTS
 
@@ -70,6 +70,9 @@ def check_selection(selection: Mapping) -> None:
     margin = selection.get("margin", 0.0)
     if isinstance(margin, bool) or not isinstance(margin, int | float) or not margin >= 0:
         raise ValueError(f"selection.margin must be a number >= 0, got {margin!r}")
+    dominance = selection.get("dominance", "interval")
+    if dominance not in DOMINANCE:
+        raise ValueError(f"selection.dominance must be one of {list(DOMINANCE)}, got {dominance!r}")
     warmup = selection.get("warmup_frames", 0)
     if isinstance(warmup, bool) or not isinstance(warmup, int) or warmup < 0:
         raise ValueError(f"selection.warmup_frames must be an integer >= 0, got {warmup!r}")
@@ -84,7 +87,11 @@ def selection_rule_from_config(cfg: Mapping) -> SelectionRule:
     """The :class:`~torchrl_auv.modules.SelectionRule` of ``cfg.selection`` (checked)."""
     selection = cfg.get("selection") or {}
     check_selection(selection)
-    return SelectionRule(anchor=selection.get("anchor"), margin=selection.get("margin", 0.0))
+    return SelectionRule(
+        anchor=selection.get("anchor"),
+        margin=selection.get("margin", 0.0),
+        dominance=selection.get("dominance", "interval"),
+    )
 
 
 def selection_backup(cfg: Mapping) -> str:

@@ -107,7 +107,7 @@ def n_step_from_config(cfg: Mapping) -> NStepReturns | None:
     """:class:`NStepReturns` of ``cfg.optim.n_steps`` and ``cfg.optim.gamma``, or ``None`` for
     one-step returns (``n_steps`` 1 or absent)."""
     n_steps = cfg["optim"].get("n_steps", 1)
-    if n_steps == 1:
+    if n_steps == 1 and not isinstance(n_steps, bool):
         return None
     try:
         return NStepReturns(n_steps, float(cfg["optim"]["gamma"]))

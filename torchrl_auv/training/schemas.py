@@ -152,6 +152,8 @@ class SelectionConfig:
     backup: str = "candidates"  # candidates (the candidate executed at s') | actor (published)
     anchor: str | None = "medoid"  # medoid: the prior's choice unless beaten | None: the best
     margin: float = 0.0  # ... by more than the ensemble's disagreement plus this (critic units)
+    dominance: str = "interval"  # interval: min over members > the anchor's max | paired:
+    #   every member's advantage over the anchor > margin (SelectionRule)
     warmup_frames: int = 5000  # frames executing the anchor while the critics learn its values
 
 
