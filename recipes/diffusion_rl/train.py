@@ -9,8 +9,8 @@
 2. Acting: the proposer proposes K action chunks per AUV; the Q ensemble
    (``network.critics`` networks, ``QEnsembleCritic.from_loss``) scores their first actions
    (and, with ``selection.include_actor``, the actor's own action); the selection rule executes
-   the medoid unless a candidate's pessimistic Q beats it (``selection.anchor``), or the
-   highest Q (``selection.anchor=null``, the paper).
+   the medoid unless every critic prefers another candidate (``selection.anchor``,
+   ``selection.dominance``), or the highest Q (``selection.anchor=null``, the paper).
    With ``finetune.steps > 0`` the proposer itself is fine-tuned after each batch's updates on
    its own candidates, weighted by their Q (``torchrl_auv.training.proposer_finetuning``).
    With ``residual.bound > 0`` instead: the proposer alone's action (the medoid of

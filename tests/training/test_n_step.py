@@ -109,3 +109,4 @@ def test_a_wrong_n_steps_is_refused_naming_the_key(n_steps):
 def test_one_step_needs_no_transform():
     assert training.n_step_from_config({"optim": {"n_steps": 1, "gamma": 0.99}}) is None
     assert training.n_step_from_config({"optim": {"gamma": 0.99}}) is None
+    assert training.n_step_from_config({"seed": 0}) is None  # e.g. a demonstrations-only config

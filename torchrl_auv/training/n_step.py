@@ -105,11 +105,12 @@ class NStepReturns:
 
 def n_step_from_config(cfg: Mapping) -> NStepReturns | None:
     """:class:`NStepReturns` of ``cfg.optim.n_steps`` and ``cfg.optim.gamma``, or ``None`` for
-    one-step returns (``n_steps`` 1 or absent)."""
-    n_steps = cfg["optim"].get("n_steps", 1)
+    one-step returns (``n_steps`` 1, or no ``optim`` or ``n_steps`` in ``cfg``)."""
+    optim = cfg.get("optim") or {}
+    n_steps = optim.get("n_steps", 1)
     if n_steps == 1 and not isinstance(n_steps, bool):
         return None
     try:
-        return NStepReturns(n_steps, float(cfg["optim"]["gamma"]))
+        return NStepReturns(n_steps, float(optim["gamma"]))
     except ValueError as err:
         raise ValueError(f"optim.n_steps: {err}") from None
