@@ -112,22 +112,20 @@ class SelectionRule(torch.nn.Module):
         scores) by ``dominance="paired"``, which ignores ``lower`` and ``upper`` where it
         deviates.
         """
-        best = lower.argmax(-1)
         if not self.anchored:
-            return best
+            return lower.argmax(-1)
         if anchor_index is None:
             raise ValueError(f"an anchored rule (anchor={self.anchor!r}) needs anchor_index")
-        anchor_index = anchor_index.to(best.device)
+        anchor_index = anchor_index.to(lower.device)
         if self.dominance == "paired":
             if members is None:
                 raise ValueError("a rule with dominance='paired' needs the members' scores")
             at_anchor = anchor_index.unsqueeze(-1).expand(*members.shape[:-1], 1)
             advantage = (members - members.gather(-1, at_anchor)).min(0).values  # [*B, K]
-            best = advantage.argmax(-1)
-            gain = advantage.gather(-1, best.unsqueeze(-1)).squeeze(-1)
+            gain, best = advantage.max(-1)
         else:
             upper = lower if upper is None else upper
-            best_lower = lower.gather(-1, best.unsqueeze(-1)).squeeze(-1)
+            best_lower, best = lower.max(-1)
             gain = best_lower - upper.gather(-1, anchor_index.unsqueeze(-1)).squeeze(-1)
         deviates = self.deviate & (gain > self.margin)
         return torch.where(deviates, best, anchor_index)
