@@ -110,7 +110,9 @@ def main(cfg: DictConfig) -> None:
         cfg, "diffusion_lac", policy, None if bound else actor, proposer
     )
     title = "Diffusion + residual LAC" if bound else "Diffusion + LAC"
-    print(run.evaluate(policies, title=title, facts=facts).read_text())
+    #    and the decrease condition on every row's executed approach transitions
+    certificate = training.lyapunov_certificate(learner.loss, critic)
+    print(run.evaluate(policies, title=title, facts=facts, certificate=certificate).read_text())
 
 
 if __name__ == "__main__":

@@ -289,6 +289,27 @@ def test_the_stability_cost_is_zero_in_service_and_a_separate_signal_from_the_co
     assert flat.rollout(3)["next", "stability_cost"].shape == (2, 3, 1)
 
 
+def test_approach_legs_follow_the_service_flags_and_the_targets():
+    """``("agents", "approach" | "service_start")``: False at reset; a decision starts
+    service exactly when the AUV is in service after it and was not before; an approach
+    decision starts out of service with a target that it keeps or reaches."""
+    env = DataCollectionEnv(batch_size=[2], seed=2, rate_model="paper")
+    td = env.rollout(150, ScriptedExpert(env), break_when_any_done=False)
+    first = env.reset()
+    assert not first["agents", "approach"].any() and not first["agents", "service_start"].any()
+    before = td["sim", "task", "auvs"]
+    after = td["next", "sim", "task", "auvs"]
+    approach = td["next", "agents", "approach"][..., 0]
+    start = td["next", "agents", "service_start"][..., 0]
+    assert start.any() and approach.any() and (~approach).any()
+    assert torch.equal(start, ~before["in_service"] & after["in_service"])
+    kept = after["target"] == before["target"]
+    expected = ~before["in_service"] & (before["target"] >= 0) & (kept | start)
+    assert torch.equal(approach, expected)
+    assert (start & ~approach).sum() == 0  # a leg ends on its own last transition
+    assert not (approach & td["next", "overridden"]).any()  # the policy's own decisions
+
+
 def test_history_transform_on_the_multi_agent_env():
     env = TransformedEnv(
         DataCollectionEnv(batch_size=[2], seed=0),

@@ -123,26 +123,36 @@ def _hand_l(obs, action, spec, weight=W, bias=B):
     return value
 
 
-def _expected(data, spec, *, mode, gamma, lam, beta, target_entropy):
+def _expected(data, spec, *, mode, gamma, lam, beta, target_entropy, legs=False, constraint="mean"):
+    """Every term by hand. ``legs``: the data's ``approach`` and ``service_start`` flags
+    select the transitions (masked means) and make ``L(s') = 0`` at the equilibrium."""
     obs, action, nobs = data["observation"], data["action"], data["next", "observation"]
     cost, term = data["next", "cost"], data["next", "terminated"].float()
+    ones = torch.ones_like(cost)
+    on = data["next", "approach"].float() if legs else ones
+    eq = data["next", "service_start"].float() if legs else 0 * ones
     policy = lambda o: o @ A.T + A0  # noqa: E731  (the Dirac actor)
     log_pi = -0.5 * (policy(obs) ** 2).sum(-1) + LOG_PROB_SHIFT
     value = _hand_l(obs, action, spec)
     next_target = _hand_l(nobs, policy(nobs), spec, W_TARGET, B_TARGET)
-    target = cost + gamma * (1 - term) * next_target
-    if mode == "lac":
-        after = _hand_l(nobs, policy(nobs), spec)
+    target = cost + gamma * (1 - term) * (1 - eq) * next_target
+    if mode == "lac":  # L is 0 after an episode's end and at the equilibrium
+        after = (1 - term) * (1 - eq) * _hand_l(nobs, policy(nobs), spec)
     else:
         after = _hand_l(obs, policy(obs), spec)
     delta = after - value + spec.alpha * cost
+
+    def masked(x):
+        return (x * on).sum() / on.sum()
+
+    owed = masked(delta) if constraint == "mean" else masked(delta.clamp_min(0))
     return {
-        "loss_lyapunov": 0.5 * ((value - target) ** 2).mean(),
-        "delta_l": delta.mean(),
-        "violation_rate": (delta > 0).float().mean(),
-        "lyapunov_value": value.mean(),
-        "loss_actor": lam * delta.mean() + beta * log_pi.mean(),
-        "loss_lambda": -torch.log(torch.tensor(lam)) * delta.mean(),
+        "loss_lyapunov": masked(0.5 * (value - target) ** 2),
+        "delta_l": masked(delta),
+        "violation_rate": masked((delta > 0).float()),
+        "lyapunov_value": masked(value),
+        "loss_actor": lam * owed + beta * log_pi.mean(),
+        "loss_lambda": -torch.log(torch.tensor(lam)) * masked(delta),
         "loss_beta": -torch.log(torch.tensor(beta)) * (log_pi + target_entropy).mean(),
     }
 
@@ -188,6 +198,102 @@ def test_every_term_equals_the_hand_calculation(mode, form, prior):
     data = _data()
     expected = _expected(data, spec, mode=mode, gamma=0.9, lam=0.7, beta=0.3, target_entropy=-1.5)
     _check(loss(data), expected)
+
+
+def _leg_data():
+    """:func:`_data` with approach legs: transitions 2 and 5 belong to none (in service, a
+    target switch), 3 reaches the equilibrium (service starts), 4 ends the episode."""
+    data = _data()
+    data["next", "approach"] = torch.tensor([1, 1, 0, 1, 1, 0], dtype=torch.bool)[:, None]
+    data["next", "service_start"] = torch.tensor([0, 0, 0, 1, 0, 0], dtype=torch.bool)[:, None]
+    return data
+
+
+@pytest.mark.parametrize("constraint", ["mean", "hinge"])
+@pytest.mark.parametrize("mode", ["lac", "paper"])
+def test_legs_mask_the_critic_and_the_condition_and_the_equilibrium_absorbs(constraint, mode):
+    """With ``approach`` and ``service_start`` in the data: the critic's TD loss and the
+    decrease condition are means over the approach transitions only, the target and
+    ``L(s')`` are 0 at the equilibrium; ``hinge`` charges the actor only for violations."""
+    spec = LyapunovSpec(form="softplus", alpha=0.3)
+    loss = _loss(spec, mode, target_entropy=-1.5, constraint=constraint)
+    loss.make_value_estimator(gamma=0.9)
+    data = _leg_data()
+    expected = _expected(
+        data,
+        spec,
+        mode=mode,
+        gamma=0.9,
+        lam=0.7,
+        beta=0.3,
+        target_entropy=-1.5,
+        legs=True,
+        constraint=constraint,
+    )
+    out = loss(data)
+    _check(out, expected)
+    assert out["leg_fraction"] == pytest.approx(4 / 6)
+    # the masks matter: without the flags the numbers differ
+    plain = loss(_data())
+    assert not torch.allclose(plain["loss_lyapunov"], out["loss_lyapunov"])
+    if constraint == "hinge" and mode == "lac":  # (lac's numbers decrease on some legs)
+        mean = _expected(
+            data, spec, mode=mode, gamma=0.9, lam=0.7, beta=0.3, target_entropy=-1.5, legs=True
+        )
+        assert not torch.allclose(mean["loss_actor"], out["loss_actor"])
+
+
+def test_the_pid_multiplier_follows_the_constraint_error_and_integrates_it():
+    """multiplier="pid": lambda = clip(kp e + ki I + kd max(0, e - e_prev), 0, lambda_max)
+    with I = max(0, I + e), e the batch's mean Delta L; updated in training mode only; the
+    dual loss is a constant (no gradient to log_lambda)."""
+    spec = LyapunovSpec(form="softplus", alpha=0.3)
+    kp, ki, kd = 0.5, 0.25, 2.0
+    loss = _loss(spec, "lac", multiplier="pid", pid_gains=(kp, ki, kd))
+    loss.lambda_max = 50.0  # far above 1: the PID sets the scale
+    data = _leg_data()
+    data["next", "cost"] = 5 * data["next", "cost"]  # costly enough to violate on average
+    e = _expected(
+        data, spec, mode="lac", gamma=0.99, lam=0.7, beta=0.3, target_entropy=-2.0, legs=True
+    )
+    error = float(e["delta_l"])
+    assert error > 0
+    out = loss(data)
+    first = kp * error + ki * error + kd * error
+    assert out["lambda"].item() == pytest.approx(first, rel=1e-5)
+    assert not out["loss_lambda"].requires_grad
+    out = loss(data)  # the same error again: the integral doubles, no rise
+    assert out["lambda"].item() == pytest.approx(kp * error + ki * 2 * error, rel=1e-5)
+    loss.eval()
+    assert loss(data)["lambda"].item() == pytest.approx(kp * error + ki * 2 * error, rel=1e-5)
+    state = loss.state_dict()
+    assert state["pid_integral"].item() == pytest.approx(2 * error, rel=1e-5)
+    with pytest.raises(ValueError, match="pid_gains"):
+        _loss(spec, "lac", multiplier="pid", pid_gains=(1.0, -1.0, 0.0))
+
+
+def test_a_fixed_zero_multiplier_switches_the_constraint_off():
+    spec = LyapunovSpec(form="softplus", alpha=0.3)
+    actor, critic = _modules()
+    loss = LyapunovActorCriticLoss(
+        actor,
+        critic,
+        spec=spec,
+        multiplier="fixed",
+        lambda_init=0.0,
+        beta_init=0.3,
+        target_entropy=-1.5,
+    )
+    out = loss(_data())
+    e = _expected(_data(), spec, mode="lac", gamma=0.99, lam=1.0, beta=0.3, target_entropy=-1.5)
+    torch.testing.assert_close(out["loss_actor"], e["loss_actor"] - e["delta_l"])
+    assert out["lambda"].item() == 0.0
+    with pytest.raises(ValueError, match="lambda_init must be > 0"):
+        LyapunovActorCriticLoss(actor, critic, lambda_init=0.0)
+    with pytest.raises(ValueError, match="multiplier must be one of"):
+        LyapunovActorCriticLoss(actor, critic, multiplier="adam")
+    with pytest.raises(ValueError, match="constraint must be one of"):
+        LyapunovActorCriticLoss(actor, critic, constraint="quantile")
 
 
 def test_the_huber_critic_loss_is_half_the_square_near_zero_and_linear_beyond():
@@ -304,7 +410,7 @@ def test_the_task_critic_learns_the_task_cost_and_the_actor_minimises_it():
     value = _hand_l(obs, action, spec)
     l_target = cost + 0.9 * (1 - term) * _hand_l(nobs, policy(nobs), spec, W_TARGET, B_TARGET)
     q_target = task_cost + 0.9 * (1 - term) * q(nobs, policy(nobs), WQ_TARGET, BQ_TARGET)
-    delta = _hand_l(nobs, policy(nobs), spec) - value + 0.3 * cost
+    delta = (1 - term) * _hand_l(nobs, policy(nobs), spec) - value + 0.3 * cost
     log_pi = -0.5 * (policy(obs) ** 2).sum(-1) + LOG_PROB_SHIFT
     expected = {
         "loss_lyapunov": 0.5 * ((value - l_target) ** 2).mean(),
@@ -407,3 +513,38 @@ def test_the_decrease_condition_fails_for_a_stationary_cost_and_holds_for_a_vani
     vanishing = _chain(torch.cat([approach, torch.zeros(20)]), gamma, tail=0.0)
     out = delta(vanishing)
     assert out["violation_rate"] == 0.0 and out["delta_l"] < 0
+
+
+@pytest.mark.parametrize("gamma", [0.99, 1.0])
+def test_on_a_leg_that_ends_at_an_absorbing_equilibrium_the_true_cost_to_go_decreases(gamma):
+    """The docstring's leg derivation: with the TD target ending at service start (``L = 0``
+    there), the leg's cost-to-go satisfies the decrease condition on every transition of an
+    approach at constant speed (costs proportional to the distance left), the last one
+    included, for gamma up to 1; a policy that stalls half-way for ever (the same cost
+    again and again, gamma < 1) violates it."""
+    alpha = 0.3
+    actor = ProbabilisticActor(
+        TensorDictModule(nn.Linear(1, 1), in_keys=["observation"], out_keys=["loc"]),
+        in_keys=["loc"],
+        distribution_class=_Dirac,
+    )
+    critic = ValueOperator(_CostToGo(), in_keys=["observation", "action"])
+    loss = LyapunovActorCriticLoss(actor, critic, spec=LyapunovSpec(form="squared", alpha=alpha))
+    loss.make_value_estimator(gamma=gamma)
+    costs = torch.arange(150.0, 0.0, -1.5) / 283.0  # 150 m from the node at 1.5 m a decision
+    leg = _chain(costs, gamma, tail=0.0)
+    n = costs.numel()
+    leg["next", "approach"] = torch.ones(n, 1, dtype=torch.bool)
+    leg["next", "service_start"] = torch.arange(n)[:, None] == n - 1
+    # the state after service start reads a cost-to-go of the next leg, not 0: the flag, not
+    # the observation, makes the equilibrium absorbing
+    leg["next", "observation"][-1] = 3.0
+    out = loss(leg)
+    assert out["violation_rate"] == 0.0 and out["delta_l"] < 0
+    if gamma == 1.0:  # a stalled policy's undiscounted cost-to-go is infinite
+        return
+    stall = costs[n // 2].item()  # for ever: the stationary cost-to-go stall / (1 - gamma)
+    stalled = _chain(torch.full((40,), stall), gamma, tail=stall / (1 - gamma))
+    stalled["next", "approach"] = torch.ones(40, 1, dtype=torch.bool)
+    stalled["next", "service_start"] = torch.zeros(40, 1, dtype=torch.bool)
+    assert loss(stalled)["violation_rate"] == 1.0

@@ -61,7 +61,18 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
         if recipe == "diffusion_rl"
         else []
     )
-    result = _run(recipe, run_dir, *([] if recipe == "diffusion" else RL_TINY), *finetune)
+    # Diffusion+RL (LAC) on approach legs with the PID multiplier and the hinge (optim.*)
+    legs = (
+        [
+            "lyapunov.legs=true",
+            "optim.multiplier=pid",
+            "optim.lambda_max=100",
+            "optim.constraint=hinge",
+        ]
+        if recipe == "diffusion_lac"
+        else []
+    )
+    result = _run(recipe, run_dir, *([] if recipe == "diffusion" else RL_TINY), *finetune, *legs)
     assert result.returncode == 0, result.stderr[-3000:]
     # the first stage is one cached artefact beside the run, named in the summary
     (stage,) = (tmp_path / "first_stage").glob("ideal-s_surface-shannon-seed0-*")
@@ -78,6 +89,14 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
     curve = (run_dir / "train_curve.csv").read_text()
     if finetune:  # from the second batch on (start_frames 200), in the training curve
         assert "100,finetune/loss" not in curve and "200,finetune/loss" in curve
+    if legs:  # every evaluated row's decrease condition on its executed approach transitions
+        certificate = json.loads((run_dir / "lyapunov_certificate.json").read_text())
+        rows = {row["policy"]: row for row in certificate["rows"]}
+        assert set(rows) == set(policies)
+        expert = rows["expert"]
+        assert expert["transitions"] > 0 and 0 <= expert["decrease_holds"] <= 1
+        assert 1 - expert["decrease_holds"] <= expert["violation_upper95"] <= 1
+        assert "100,train/leg_fraction" in curve
 
 
 @pytest.mark.slow  # minutes: kept out of the default suite's 20-minute budget

@@ -20,8 +20,10 @@ from torchrl_auv import iout
 from torchrl_auv.envs.device import on_env_device, step_on_cpu
 from torchrl_auv.envs.keys import (
     AGENT_ACTION,
+    AGENT_APPROACH,
     AGENT_COST,
     AGENT_OBSERVATION,
+    AGENT_SERVICE_START,
     AGENT_STABILITY_COST,
     AGENTS,
 )
@@ -170,6 +172,12 @@ class DataCollectionEnv(EnvBase):
     at most 5 per AUV), plus :math:`5 / (1 - 0.99) = 500` for the AUV that ends the episode:
     the cost a Lyapunov critic can decrease along an approach (``lyapunov.cost=stability``); a
     separate signal, not part of the reward.
+
+    **Approach legs** ``("agents", "approach" | "service_start")`` ``[*B, N, 1]`` bool
+    (observation keys: False at reset, then the last decision's; multi-agent layout only):
+    the decision belonged to an approach leg (the AUV headed for one target and kept it or
+    reached it) and it ended the leg by starting service (:mod:`torchrl_auv.iout.legs`). The
+    Lyapunov critic's legs and absorbing equilibrium.
 
     **Start state.** Per scene a new seabed, node positions, rates and initial fills
     (U(0, 1000) packets), a new ocean (as deep as the scene's mean seabed), the AUVs 20 m apart
@@ -388,6 +396,8 @@ class DataCollectionEnv(EnvBase):
                     observation=Unbounded(shape=(*agent_shape, d), dtype=torch.float32),
                     cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
                     stability_cost=Unbounded(shape=(*agent_shape, 1), dtype=torch.float32),
+                    approach=Categorical(2, shape=(*agent_shape, 1), dtype=torch.bool),
+                    service_start=Categorical(2, shape=(*agent_shape, 1), dtype=torch.bool),
                     shape=agent_shape,
                 )
             }
@@ -473,6 +483,9 @@ class DataCollectionEnv(EnvBase):
         self._write_observation(sim, state)
         for key in self.cost_keys:  # no decision yet: no cost
             state[key] = torch.zeros(*shape, *((n,) if not self.flatten_agents else ()), 1)
+        if not self.flatten_agents:  # no decision yet: no leg
+            for key in (AGENT_APPROACH, AGENT_SERVICE_START):
+                state[key] = torch.zeros(*shape, n, 1, dtype=torch.bool)
         return state
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
@@ -707,7 +720,11 @@ class DataCollectionEnv(EnvBase):
         steps = decision["steps"]
         # mean speed through the water over the decision, inside the EC model's domain
         speed = (decision["speed_sum"] / steps).clamp(max=_EC_SPEED_LIMIT)
+        target_before = task["auvs", "target"]
         task, events = iout.step(task, position, cfg, generator=None, arrivals=draws["arrivals"])
+        legs = iout.approach_legs(
+            hovering, target_before, task["auvs", "in_service"], task["auvs", "target"]
+        )
         accumulators = self.task_metrics.update(
             td["accumulators"], events, speed, decision["shaft_power_sum"] / steps
         )
@@ -779,6 +796,8 @@ class DataCollectionEnv(EnvBase):
         )
         self._write_observation(sim, out)
         self._write_costs(out, cost, stability, ending, done)
+        if not self.flatten_agents:
+            out[AGENT_APPROACH], out[AGENT_SERVICE_START] = (flag[..., None] for flag in legs)
         return out
 
     def _write_costs(

@@ -12,9 +12,11 @@ from __future__ import annotations
 __all__ = [
     "AGENTS",
     "AGENT_ACTION",
+    "AGENT_APPROACH",
     "AGENT_COST",
     "AGENT_OBSERVATION",
     "AGENT_REWARD",
+    "AGENT_SERVICE_START",
     "AGENT_STABILITY_COST",
 ]
 
@@ -28,3 +30,8 @@ AGENT_ACTION = (AGENTS, "action")
 AGENT_REWARD = (AGENTS, "reward")
 AGENT_COST = (AGENTS, "cost")
 AGENT_STABILITY_COST = (AGENTS, "stability_cost")
+#: per AUV ``[*B, N, 1]`` bool (observation keys: False at reset, then the last decision's):
+#: the decision was part of an approach leg, and it ended the leg by starting service
+#: (:mod:`torchrl_auv.iout.legs`; the Lyapunov critic's legs and equilibrium)
+AGENT_APPROACH = (AGENTS, "approach")
+AGENT_SERVICE_START = (AGENTS, "service_start")

@@ -8,6 +8,7 @@ module                      holds
 ``policies``                the reference policies by name (expert, lazy, idle, random, exit)
 ``pool``                    rows evaluated in worker processes; :class:`RowWorker` for curves
 ``held_out``                :func:`evaluate`: every policy in every sea state on the same scenes
+``certificate``             :class:`LyapunovCertificate`: the decrease condition on executed legs
 ==========================  ========================================================================
 
 It sits above the environments, modules and objectives and below ``training``, which builds
@@ -17,6 +18,11 @@ layers below; ``tqdm`` only for ``evaluate(progress=True)``).
 
 from __future__ import annotations
 
+from torchrl_auv.evaluation.certificate import (
+    CERTIFICATE_KEYS,
+    LyapunovCertificate,
+    clopper_pearson_upper,
+)
 from torchrl_auv.evaluation.episodes import (
     SE_METRICS,
     TRACKING_METRICS,
@@ -37,11 +43,14 @@ from torchrl_auv.evaluation.policies import (
 from torchrl_auv.evaluation.pool import RowWorker, evaluate_row, evaluate_rows
 
 __all__ = [
+    "CERTIFICATE_KEYS",
     "POLICIES",
     "SE_METRICS",
     "TRACKING_METRICS",
+    "LyapunovCertificate",
     "RowWorker",
     "SameRowAs",
+    "clopper_pearson_upper",
     "episode_stats",
     "evaluate",
     "evaluate_row",

@@ -55,13 +55,17 @@ def episode_stats(
     *,
     gammas: Sequence[float] = (0.97, 0.99),
     callback: Callable | None = None,
+    transition_stats: Callable | None = None,
 ) -> dict[str, float]:
     """Roll ``policy`` out for ``steps`` decisions (one episode per scene, or its first
     ``steps`` decisions) and summarise it (module docstring). Values are means over scenes;
     ``kf_error_p95`` is the 95th percentile over every AUV-decision; ``<metric>_se`` the
     standard error over scenes of :data:`SE_METRICS` and the discounted costs (cost per AUV
     from reset, the AUVs' mean). ``callback(env, td)`` is
-    called after every decision (``EnvBase.rollout``'s), e.g. to advance a progress bar."""
+    called after every decision (``EnvBase.rollout``'s), e.g. to advance a progress bar.
+    ``transition_stats(rollout, mask)``: more of the row's values from the rollout and the
+    ``[B, T]`` mask of each scene's first episode (e.g. a
+    :class:`~torchrl_auv.evaluation.LyapunovCertificate`)."""
     rollout = env.rollout(steps, policy, break_when_any_done=False, callback=callback)
     rollout = rollout.cpu()  # an env on a GPU (device=cuda): the statistics on the CPU
     first, mask = first_episode(rollout)
@@ -111,6 +115,8 @@ def episode_stats(
             out[f"{key}_se"] = _standard_error(per_scene[key])
     for gamma in gammas:
         out[f"discounted_cost_{gamma}_se"] = _standard_error(per_scene[f"discounted_cost_{gamma}"])
+    if transition_stats is not None:
+        out.update(transition_stats(rollout, mask))
     return out
 
 

@@ -42,6 +42,7 @@ def evaluate(
     steps: int,
     progress: bool = False,
     workers: int = 1,
+    transition_stats=None,
 ) -> list[dict]:
     """Every policy in every sea state on the same held-out scenes, deterministic actions.
 
@@ -61,6 +62,9 @@ def evaluate(
         workers: rows evaluated side by side in this many worker processes (the same
             numbers; ``make_env`` and the policies must then be picklable, see
             :mod:`~torchrl_auv.evaluation.pool`).
+        transition_stats: more values of every row from its rollout
+            (:func:`~torchrl_auv.evaluation.episode_stats`; e.g. a
+            :class:`~torchrl_auv.evaluation.LyapunovCertificate`).
 
     Returns:
         one row per (sea state, policy): ``{"sea_state", "policy", **episode_stats}``.
@@ -84,9 +88,24 @@ def evaluate(
         import tqdm
 
         with tqdm.tqdm(total=len(jobs) * steps, unit="decision", desc="evaluation") as bar:
-            rows = evaluate_rows(make_env, jobs, seed=seed, steps=steps, workers=workers, bar=bar)
+            rows = evaluate_rows(
+                make_env,
+                jobs,
+                seed=seed,
+                steps=steps,
+                workers=workers,
+                bar=bar,
+                transition_stats=transition_stats,
+            )
     else:
-        rows = evaluate_rows(make_env, jobs, seed=seed, steps=steps, workers=workers)
+        rows = evaluate_rows(
+            make_env,
+            jobs,
+            seed=seed,
+            steps=steps,
+            workers=workers,
+            transition_stats=transition_stats,
+        )
     found = {(row["sea_state"], row["policy"]): row for row in rows}
     return [
         found[sea, name]

@@ -42,11 +42,13 @@ def evaluate_row(
     seed: int,
     steps: int,
     tick: Callable | None = None,
+    transition_stats: Callable | None = None,
 ) -> dict:
     """One row: ``build`` (a policy module, or ``env -> policy``) on ``make_env(sea_state,
     seed)`` rolled out for ``steps`` decisions with
     deterministic actions, torch's global generator seeded with ``seed`` (forked: restored
-    after), ``tick()`` after every decision."""
+    after), ``tick()`` after every decision; ``transition_stats``:
+    :func:`~torchrl_auv.evaluation.episode_stats`'."""
     env = make_env(sea_state, seed)
     policy = build if isinstance(build, torch.nn.Module) else build(env)
     with (
@@ -56,7 +58,11 @@ def evaluate_row(
     ):
         torch.manual_seed(seed)  # random actions and proposals: seeded too
         stats = episode_stats(
-            env, policy, steps, callback=None if tick is None else lambda *_: tick()
+            env,
+            policy,
+            steps,
+            callback=None if tick is None else lambda *_: tick(),
+            transition_stats=transition_stats,
         )
     return {"sea_state": sea_state, "policy": name, **stats}
 
@@ -85,13 +91,26 @@ def _dumps(what: str, obj) -> bytes:
 
 
 def _pickled_row(
-    make_env, policy_bytes: bytes, sea_state: str, name: str, seed: int, steps: int
+    make_env,
+    policy_bytes: bytes,
+    sea_state: str,
+    name: str,
+    seed: int,
+    steps: int,
+    transition_stats: Callable | None = None,
 ) -> tuple[dict, float]:
     """In a worker: one row of a pickled policy and the seconds it took; with a shared
     counter (:func:`evaluate_rows`), every decision counted."""
     began, tick = time.perf_counter(), None if _TICKS is None else _tick
     row = evaluate_row(
-        make_env, pickle.loads(policy_bytes), sea_state, name, seed=seed, steps=steps, tick=tick
+        make_env,
+        pickle.loads(policy_bytes),
+        sea_state,
+        name,
+        seed=seed,
+        steps=steps,
+        tick=tick,
+        transition_stats=transition_stats,
     )
     if tick is not None:
         tick()  # the rollout's callback skips the last decision
@@ -99,10 +118,18 @@ def _pickled_row(
 
 
 def evaluate_rows(
-    make_env, jobs: Sequence[tuple], *, seed: int, steps: int, workers: int, bar=None
+    make_env,
+    jobs: Sequence[tuple],
+    *,
+    seed: int,
+    steps: int,
+    workers: int,
+    bar=None,
+    transition_stats: Callable | None = None,
 ) -> list[dict]:
     """``jobs``: ``(sea_state, name, build)``; the rows in that order (module docstring).
-    ``bar``: a tqdm bar advanced by every decision of every row."""
+    ``bar``: a tqdm bar advanced by every decision of every row; ``transition_stats``: every
+    row's (:func:`~torchrl_auv.evaluation.episode_stats`; picklable for ``workers > 1``)."""
     if workers == 1 or len(jobs) <= 1:
         rows = []
         for sea_state, name, build in jobs:
@@ -110,12 +137,22 @@ def evaluate_rows(
                 bar.set_postfix_str(f"{sea_state} {name}")
             tick = None if bar is None else lambda: bar.update()
             rows.append(
-                evaluate_row(make_env, build, sea_state, name, seed=seed, steps=steps, tick=tick)
+                evaluate_row(
+                    make_env,
+                    build,
+                    sea_state,
+                    name,
+                    seed=seed,
+                    steps=steps,
+                    tick=tick,
+                    transition_stats=transition_stats,
+                )
             )
             if bar is not None:
                 bar.update(len(rows) * steps - bar.n)  # the callback skips the last decision
         return rows
     _dumps("make_env", make_env)
+    _dumps("transition_stats", transition_stats)
     pickled = {name: _dumps(f"the policy of row {name!r}", build) for _, name, build in jobs}
     context = multiprocessing.get_context("spawn")
     ticks = context.Value("q", 0)
@@ -124,7 +161,16 @@ def evaluate_rows(
         min(workers, len(jobs)), mp_context=context, initializer=_start_worker, initargs=start
     ) as pool:
         futures = [
-            pool.submit(_pickled_row, make_env, pickled[name], sea_state, name, seed, steps)
+            pool.submit(
+                _pickled_row,
+                make_env,
+                pickled[name],
+                sea_state,
+                name,
+                seed,
+                steps,
+                transition_stats,
+            )
             for sea_state, name, _ in jobs
         ]
         pending = set(futures)

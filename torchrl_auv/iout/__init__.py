@@ -27,6 +27,7 @@ from __future__ import annotations
 from torchrl_auv.iout.approach import approach_direction
 from torchrl_auv.iout.config import IoUTConfig
 from torchrl_auv.iout.expert import ExpertConfig, expert_setpoints, other_positions
+from torchrl_auv.iout.legs import approach_legs
 from torchrl_auv.iout.link import link_rate
 from torchrl_auv.iout.metrics import METRIC_KEYS, TaskMetrics
 from torchrl_auv.iout.nodes import data_arrivals, sample_nodes
@@ -62,6 +63,7 @@ __all__ = [
     "StationKeepingConfig",
     "TaskMetrics",
     "approach_direction",
+    "approach_legs",
     "assign_targets",
     "collision_mask",
     "data_arrivals",

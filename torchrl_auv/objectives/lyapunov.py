@@ -44,6 +44,45 @@ still waiting in the nodes, which never vanishes (46-59 % of the expert's cost),
 task cost the constraint is infeasible; :func:`torchrl_auv.iout.stability_cost` (distance and
 regress toward the target, collisions, violations: 0 in service) can satisfy it.
 
+**Legs and an absorbing equilibrium** (the ``approach`` and ``equilibrium`` keys; absent
+from the data, every transition counts and none is absorbing). Even the stability cost does
+not vanish for good in the data-collection task: after each service the AUV takes a new
+target and the distance jumps. What can decrease is the cost-to-go of one *approach leg*
+(:mod:`torchrl_auv.iout.legs`), from taking a target to starting service at it. The critic
+learns that leg's cost-to-go: its TD target ends at service start,
+
+.. math::
+
+    L(s, a) \leftarrow c + \gamma\,(1 - d)\,(1 - e)\, L_{target}(s', a'),
+
+with :math:`e = 1` where the transition starts service (the equilibrium: :math:`L = 0`
+there), and the critic's loss and the decrease condition are means over the approach
+transitions only (``approach``: not in service, the same target kept). For the leg's true
+cost-to-go, :math:`\Delta L = L(s', a') - L(s, a) + \alpha c = (1 - \gamma) L(s', a') -
+(1 - \alpha) c` inside the leg and :math:`-L(s, a) + \alpha c = -(1 - \alpha) c` on the last
+transition. With :math:`\gamma = 1` every transition of a leg that ends satisfies the
+condition (:math:`c > 0` outside service); with :math:`\gamma < 1` every transition where
+:math:`(1 - \gamma) L(s') < (1 - \alpha) c`: for an approach at speed :math:`v` with a cost
+:math:`w\,d / D` proportional to the distance :math:`d` left (``iout.stability_cost``),
+:math:`L \approx w d^2 / (2 D v \Delta t)` and the condition holds for
+:math:`d < 2 (1 - \alpha) v \Delta t / (1 - \gamma)` (270 m at 1.5 m a decision,
+:math:`\alpha = 0.1`, :math:`\gamma = 0.99`: all of the area's 283 m diagonal but its last
+13 m). A policy that stalls, circles or regresses (the regress term) violates it: that is
+what the condition is for.
+
+**The constraint and the multiplier.** ``constraint="mean"`` charges the actor
+:math:`\lambda\,\mathbb E[\Delta L]` (as published: one transition's violation can be paid
+by another's decrease); ``"hinge"`` charges :math:`\lambda\,\mathbb E[\max(0, \Delta L)]`,
+each violating sample on its own. ``multiplier="dual"`` moves :math:`\log\lambda` by
+gradient ascent on :math:`\mathbb E[\Delta L]` (published; its pace is the optimiser's step
+size, not the constraint's); ``"pid"`` sets :math:`\lambda` from a PID controller on the
+batch's :math:`e = \mathbb E[\Delta L]` (Stooke, Achiam and Abbeel 2020): :math:`I
+\leftarrow \max(0, I + e)`, :math:`\lambda = \mathrm{clip}(k_p e + k_i I + k_d \max(0, e -
+e_{prev}), 0, \lambda_{max})`, updated by every forward call in training mode (the module's
+``train()``), so a persistent violation raises :math:`\lambda` however small, and a
+satisfied condition lowers it; ``"fixed"`` keeps ``lambda_init`` (0: the constraint off).
+Only the ``"dual"`` multiplier has a gradient (``loss_lambda`` is a constant otherwise).
+
 **Two critics** (``qvalue_network``, paper Algorithm 1 initialises both :math:`Q_\psi` and
 :math:`L_\xi`). Without it, the actor optimises the task through :math:`L` alone (LAC: the
 critic learns the ``cost`` key, the task cost). With it, :math:`L` learns the ``cost`` key
@@ -79,9 +118,18 @@ from torchrl_auv.modules.lyapunov_forms import (
 from torchrl_auv.modules.selection_rule import SelectionRule
 from torchrl_auv.objectives.candidate_backup import check_backup, next_candidates, per_candidate
 
-__all__ = ["LOSS_FUNCTIONS", "MODES", "LyapunovActorCriticLoss"]
+__all__ = ["CONSTRAINTS", "LOSS_FUNCTIONS", "MODES", "MULTIPLIERS", "LyapunovActorCriticLoss"]
 
 MODES = ("lac", "paper")
+#: How the actor's loss weighs the decrease condition: ``mean`` (LAC as published:
+#: :math:`\lambda\,\mathbb E[\Delta L]`, a violation can be paid by a decrease elsewhere) or
+#: ``hinge`` (:math:`\lambda\,\mathbb E[\max(0, \Delta L)]`, per sample: only violations count).
+CONSTRAINTS = ("mean", "hinge")
+#: How the multiplier moves: ``dual`` (gradient ascent on :math:`\log\lambda`, Adam, as
+#: published), ``pid`` (a PID controller on the batch's :math:`\mathbb E[\Delta L]`, Stooke,
+#: Achiam and Abbeel, ICML 2020) or ``fixed`` (:math:`\lambda` = ``lambda_init`` throughout; 0
+#: switches the constraint off: the ablation).
+MULTIPLIERS = ("dual", "pid", "fixed")
 #: The critic's TD loss: ``l2`` (:math:`\tfrac12 e^2`) or ``smooth_l1`` (Huber, threshold 1: the
 #: same :math:`\tfrac12 e^2` for :math:`|e| < 1`, :math:`|e| - \tfrac12` beyond, so one large
 #: target, such as a termination cost, weighs linearly, not quadratically).
@@ -133,18 +181,25 @@ class LyapunovActorCriticLoss(LossModule):
             unchanged.
         rule: the selector's :class:`~torchrl_auv.modules.SelectionRule` (by reference;
             default argmin).
+        constraint: :data:`CONSTRAINTS` (module docstring; default ``"mean"``, published).
+        multiplier: :data:`MULTIPLIERS` (default ``"dual"``, published); ``lambda_init`` may be
+            0 for ``"pid"`` and ``"fixed"``.
+        pid_gains: ``(kp, ki, kd)`` >= 0 of the ``"pid"`` multiplier (per unit of
+            :math:`\\Delta L`; default ``(1, 0.01, 0)``).
 
     Keys (``set_keys``): ``action``, ``reward``, ``cost`` (the Lyapunov critic's cost; ``-reward``
     when the default ``"cost"`` is absent; a key set with ``set_keys`` must be in the data),
     ``task_cost`` (the Q critic's; likewise), ``done``, ``terminated``, ``candidates`` and
     ``anchor`` (``backup="candidates"``: the next state's candidate first actions
-    ``[*B, K, A]`` and anchor index ``[*B]``), ``value`` (the Lyapunov
+    ``[*B, K, A]`` and anchor index ``[*B]``), ``approach`` and ``equilibrium`` (under
+    ``"next"``, bool like the cost: the approach legs; module docstring), ``value`` (the Lyapunov
     critic's out key), ``qvalue`` (the Q critic's out key; a critic that does not write its key
     is a ``ValueError`` naming both), ``observation`` (read by a prior), ``log_prob``.
 
     Output: ``loss_actor``, ``loss_lyapunov``, ``loss_lambda``, ``loss_beta`` and detached
     ``lambda``, ``beta``, ``delta_l`` (mean), ``violation_rate`` (fraction of
-    :math:`\\Delta L > 0`), ``lyapunov_value`` (mean), ``negative_cost_fraction``; with a
+    :math:`\\Delta L > 0`), ``lyapunov_value`` (mean; these three over the approach
+    transitions), ``leg_fraction`` (their share), ``negative_cost_fraction``; with a
     ``qvalue_network`` also ``loss_qvalue`` and ``qvalue`` (mean).
 
     Examples:
@@ -182,6 +237,8 @@ class LyapunovActorCriticLoss(LossModule):
         log_prob: NestedKey = "action_log_prob"
         candidates: NestedKey = ("proposer", "first_actions")
         anchor: NestedKey = ("proposer", "medoid")
+        approach: NestedKey = "approach"
+        equilibrium: NestedKey = "service_start"
 
     default_keys = _AcceptedKeys
     default_value_estimator = ValueEstimators.TD0
@@ -214,8 +271,17 @@ class LyapunovActorCriticLoss(LossModule):
         qvalue_network: TensorDictModule | None = None,
         backup: str = "actor",
         rule: SelectionRule | None = None,
+        constraint: str = "mean",
+        multiplier: str = "dual",
+        pid_gains: tuple[float, float, float] = (1.0, 0.01, 0.0),
     ) -> None:
         check_backup(backup)
+        if constraint not in CONSTRAINTS:
+            raise ValueError(f"constraint must be one of {CONSTRAINTS}, got {constraint!r}")
+        if multiplier not in MULTIPLIERS:
+            raise ValueError(f"multiplier must be one of {MULTIPLIERS}, got {multiplier!r}")
+        if len(pid_gains) != 3 or any(not gain >= 0 for gain in pid_gains):
+            raise ValueError(f"pid_gains must be three numbers >= 0 (kp, ki, kd), got {pid_gains}")
         if loss_function not in LOSS_FUNCTIONS:
             raise ValueError(
                 f"loss_function must be one of {LOSS_FUNCTIONS}, got {loss_function!r}"
@@ -231,8 +297,10 @@ class LyapunovActorCriticLoss(LossModule):
             ("lambda_max", lambda_max),
             ("beta_init", beta_init),
         ):
-            if not value > 0:
+            if not value > 0 and not (name == "lambda_init" and multiplier != "dual"):
                 raise ValueError(f"{name} must be > 0, got {value}")
+        if not lambda_init >= 0:
+            raise ValueError(f"lambda_init must be >= 0, got {lambda_init}")
         if lambda_init > lambda_max:
             raise ValueError(f"lambda_init must be <= lambda_max, got {lambda_init}")
         if target_entropy != "auto" and not isinstance(target_entropy, int | float):
@@ -250,7 +318,15 @@ class LyapunovActorCriticLoss(LossModule):
         )
         self.mode, self.loss_function = mode, loss_function
         self.lambda_max = float(lambda_max)
-        self.log_lambda = torch.nn.Parameter(torch.tensor(float(lambda_init)).log())
+        self.constraint, self.multiplier = constraint, multiplier
+        self.pid_gains = tuple(float(gain) for gain in pid_gains)
+        # the dual's parameter (multiplier "dual"); kept for the others so that optimisers
+        # and state dicts have one shape
+        self.log_lambda = torch.nn.Parameter(torch.tensor(max(float(lambda_init), 1e-8)).log())
+        # the PID's and the fixed multiplier's value, integral and last error (state dict)
+        self.register_buffer("lambda_value", torch.tensor(float(lambda_init)))
+        self.register_buffer("pid_integral", torch.tensor(0.0))
+        self.register_buffer("pid_error", torch.tensor(0.0))
         self.log_beta = torch.nn.Parameter(torch.tensor(float(beta_init)).log())
         self._target_entropy = target_entropy
         self._action_spec = action_spec
@@ -321,8 +397,25 @@ class LyapunovActorCriticLoss(LossModule):
 
     @property
     def lambda_(self) -> torch.Tensor:
-        """The Lagrange multiplier, ``exp(log_lambda)`` clamped to ``[0, lambda_max]``."""
-        return self.log_lambda.exp().clamp(0.0, self.lambda_max)
+        """The Lagrange multiplier in ``[0, lambda_max]``: ``exp(log_lambda)`` (multiplier
+        ``dual``), the PID's output (``pid``) or ``lambda_init`` (``fixed``)."""
+        if self.multiplier == "dual":
+            return self.log_lambda.exp().clamp(0.0, self.lambda_max)
+        return self.lambda_value
+
+    @torch.no_grad()
+    def _pid_step(self, error: torch.Tensor) -> None:
+        r"""One PID update on the batch's constraint error :math:`e = \mathbb E[\Delta L]`
+        (Stooke et al. 2020, Alg. 2): :math:`I \leftarrow \max(0, I + e)`,
+        :math:`\lambda = \mathrm{clip}(k_p e + k_i I + k_d \max(0, e - e_{prev}), 0,
+        \lambda_{max})`. The integral answers a persistent violation, however small; the
+        proportional term a violation now; the derivative a rising one."""
+        kp, ki, kd = self.pid_gains
+        self.pid_integral.copy_((self.pid_integral + error).clamp_min(0.0))
+        rise = (error - self.pid_error).clamp_min(0.0)
+        value = kp * error + ki * self.pid_integral + kd * rise
+        self.lambda_value.copy_(value.clamp(0.0, self.lambda_max))
+        self.pid_error.copy_(error)
 
     def _clamp_log_lambda(self) -> None:
         """Put ``log_lambda`` itself back at ``log(lambda_max)`` when a dual step pushed it
@@ -357,6 +450,7 @@ class LyapunovActorCriticLoss(LossModule):
             "delta_l",
             "violation_rate",
             "lyapunov_value",
+            "leg_fraction",
             "negative_cost_fraction",
             *task,
         ]
@@ -440,11 +534,35 @@ class LyapunovActorCriticLoss(LossModule):
             )
         return -reward
 
-    def _td_loss(self, value: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        """The critics' TD loss (``loss_function``)."""
+    def _td_loss(
+        self, value: torch.Tensor, target: torch.Tensor, weight: torch.Tensor | None = None
+    ) -> torch.Tensor:
+        """The critics' TD loss (``loss_function``), averaged over the samples of weight 1
+        (``weight``: the approach mask, default all)."""
         if self.loss_function == "l2":
-            return 0.5 * (value - target).square().mean()
-        return torch.nn.functional.smooth_l1_loss(value, target)
+            errors = 0.5 * (value - target).square()
+        else:
+            errors = torch.nn.functional.smooth_l1_loss(value, target, reduction="none")
+        if weight is None:
+            return errors.mean()
+        return (errors * weight).sum() / weight.sum().clamp_min(1.0)
+
+    def _legs(
+        self, next_td: TensorDictBase, cost: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(on_leg, at_equilibrium)`` as float masks shaped like ``cost``: the transitions
+        the Lyapunov critic and the decrease condition are about (the ``approach`` key; all
+        when the data have none) and those that reach the absorbing equilibrium (the
+        ``equilibrium`` key, where :math:`L(s') = 0`; none when absent)."""
+        masks = []
+        for name, default in (("approach", 1.0), ("equilibrium", 0.0)):
+            flag = next_td.get(getattr(self.tensor_keys, name), None)
+            masks.append(
+                torch.full_like(cost, default)
+                if flag is None
+                else flag.to(cost.dtype).expand_as(cost)
+            )
+        return masks[0], masks[1]
 
     def forward(self, tensordict: TensorDictBase) -> TensorDict:
         self._clamp_log_lambda()
@@ -459,13 +577,15 @@ class LyapunovActorCriticLoss(LossModule):
         terminated = next_td.get(self.tensor_keys.terminated, None)
         if terminated is None:
             raise ValueError(f"key ('next', {self.tensor_keys.terminated!r}) is missing")
+        on_leg, at_equilibrium = self._legs(next_td, cost)
         action = td.get(self.tensor_keys.action)
         actor_params = self.actor_network_params
         critic_params = self.lyapunov_network_params
         frozen_critic = critic_params.detach()
 
-        # critic: L(s, a) towards c + gamma (1 - terminated) L_target(s', a')
+        # critic: L(s, a) towards c + gamma (1 - terminated) (1 - equilibrium) L_target(s', a')
         continues = 1 - terminated.to(cost.dtype)
+        leg_continues = continues * (1 - at_equilibrium)
         with torch.no_grad():
             if self.backup == "candidates":
                 next_action, next_value = self._executed_next(next_td)
@@ -474,9 +594,9 @@ class LyapunovActorCriticLoss(LossModule):
                 next_value = self._lyapunov(
                     next_td, next_action, self.target_lyapunov_network_params
                 )
-            target = cost + self.gamma * continues * next_value
+            target = cost + self.gamma * leg_continues * next_value
         value = self._lyapunov(td, action, critic_params)
-        loss_lyapunov = self._td_loss(value, target)
+        loss_lyapunov = self._td_loss(value, target, on_leg)
 
         # actor: lambda * DeltaL + beta * log pi, gradient through the sampled actions only
         new_action, log_prob = self._sample(td, actor_params)
@@ -485,8 +605,18 @@ class LyapunovActorCriticLoss(LossModule):
             after = self._lyapunov(next_td, policy_next, frozen_critic)
         else:
             after = self._lyapunov(td, new_action, frozen_critic)
+        # L is 0 at an absorbing state (an episode's end, a leg's equilibrium)
+        if self.mode == "lac":
+            after = leg_continues * after
         delta = after - value.detach() + self.spec_state.last_set.alpha * cost
-        loss_actor = self.lambda_.detach() * delta.mean() + self.beta.detach() * log_prob.mean()
+        legs = on_leg.sum().clamp_min(1.0)
+        mean_delta = (delta * on_leg).sum() / legs
+        if self.multiplier == "pid" and self.training:
+            self._pid_step(mean_delta.detach())
+        owed = (
+            mean_delta if self.constraint == "mean" else (delta.clamp_min(0) * on_leg).sum() / legs
+        )
+        loss_actor = self.lambda_.detach() * owed + self.beta.detach() * log_prob.mean()
         task = {}
         if self.qvalue_network is not None:  # the task: a Q critic on task_cost
             task_cost = self._cost(next_td, "task_cost")
@@ -498,8 +628,11 @@ class LyapunovActorCriticLoss(LossModule):
             loss_actor = loss_actor + policy_q.mean()
             task = {"loss_qvalue": self._td_loss(q, q_target), "qvalue": q.detach().mean()}
 
-        # duals
-        loss_lambda = -self.log_lambda * delta.detach().mean()
+        # duals (the multiplier's only with multiplier "dual")
+        if self.multiplier == "dual":
+            loss_lambda = -self.log_lambda * mean_delta.detach()
+        else:
+            loss_lambda = (self.log_lambda * 0.0).detach()
         target_entropy = self._target_entropy_value(new_action)
         loss_beta = -self.log_beta * (log_prob + target_entropy).detach().mean()
         return TensorDict(
@@ -510,9 +643,10 @@ class LyapunovActorCriticLoss(LossModule):
                 "loss_beta": loss_beta,
                 "lambda": self.lambda_.detach(),
                 "beta": self.beta.detach(),
-                "delta_l": delta.detach().mean(),
-                "violation_rate": (delta.detach() > 0).float().mean(),
-                "lyapunov_value": value.detach().mean(),
+                "delta_l": mean_delta.detach(),
+                "violation_rate": ((delta.detach() > 0) * on_leg).sum() / legs,
+                "lyapunov_value": (value.detach() * on_leg).sum() / legs,
+                "leg_fraction": on_leg.mean(),
                 "negative_cost_fraction": (cost < 0).float().mean(),
                 **task,
             },

@@ -109,6 +109,7 @@ from torchrl_auv.training.lac import (
     feedback_batch,
     lac_from_config,
     lac_optimisers,
+    lyapunov_certificate,
     make_lac_loss,
 )
 from torchrl_auv.training.learner import Learner, gradient_step
@@ -322,6 +323,7 @@ __all__ = [
     "lac_optimisers",
     "log_metrics",
     "logger_from_config",
+    "lyapunov_certificate",
     "make_actor",
     "make_checkpoint",
     "make_collector",

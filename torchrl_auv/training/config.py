@@ -18,6 +18,7 @@ from torchrl_auv.control import available_controllers
 from torchrl_auv.modules import CANDIDATE_PICKS, SAMPLERS
 from torchrl_auv.modules.lyapunov_forms import FORMS
 from torchrl_auv.objectives import LR_SCHEDULES
+from torchrl_auv.objectives.lyapunov import CONSTRAINTS, MULTIPLIERS
 from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
 from torchrl_auv.training.candidates import check_selection
@@ -84,6 +85,9 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "optim.compile": (True, False),
         "network.layer_norm": (True, False),
         "lyapunov.cost": ("task", "stability"),
+        "lyapunov.legs": (True, False),
+        "optim.multiplier": MULTIPLIERS,
+        "optim.constraint": CONSTRAINTS,
     }
 
 
@@ -130,6 +134,7 @@ def check_choices(cfg: Mapping) -> None:
         or not (weight > 0 and math.isfinite(weight))
     ):
         raise ValueError(f"lyapunov.stability_weight must be a finite number > 0, got {weight!r}")
+    check_multiplier(cfg)
     finetune = _get(cfg, "finetune")
     if isinstance(finetune, Mapping):
         check_finetune(finetune)
@@ -158,6 +163,34 @@ def check_choices(cfg: Mapping) -> None:
 
         if not torch.cuda.is_available():
             raise ValueError("device is 'cuda' but torch sees no CUDA device; use device=cpu")
+
+
+def check_multiplier(cfg: Mapping) -> None:
+    """The LAC multiplier's values (``optim.lambda_init``, ``optim.lambda_max``,
+    ``optim.pid_gains``) and ``lyapunov.legs`` (the stability cost's): a ``ValueError``
+    naming the key."""
+    init, cap = _get(cfg, "optim.lambda_init"), _get(cfg, "optim.lambda_max")
+    multiplier = _get(cfg, "optim.multiplier")
+    for key, value in (("optim.lambda_init", init), ("optim.lambda_max", cap)):
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0
+        ):
+            raise ValueError(f"{key} must be a number >= 0, got {value!r}")
+    if multiplier == "dual" and init is not None and not init > 0:
+        raise ValueError(f"optim.lambda_init must be > 0 with optim.multiplier=dual, got {init!r}")
+    if init is not None and cap is not None and init > cap:
+        raise ValueError(f"optim.lambda_init ({init}) must be <= optim.lambda_max ({cap})")
+    gains = _get(cfg, "optim.pid_gains")
+    if gains is not None and (
+        len(gains) != 3
+        or any(isinstance(g, bool) or not isinstance(g, int | float) or not g >= 0 for g in gains)
+    ):
+        raise ValueError(f"optim.pid_gains must be three numbers >= 0 (kp, ki, kd), got {gains!r}")
+    if _get(cfg, "lyapunov.legs") and _get(cfg, "lyapunov.cost") == "task":
+        raise ValueError(
+            "lyapunov.legs=true ends the Lyapunov critic's TD target at service start, where "
+            "only the stability cost is 0: it needs lyapunov.cost=stability, got task"
+        )
 
 
 def resolve_config(cfg) -> dict:

@@ -23,6 +23,8 @@ from torchrl.modules import ProbabilisticActor
 from torchrl.objectives import SoftUpdate
 
 from torchrl_auv import advisor as advisors
+from torchrl_auv.envs.keys import AGENT_APPROACH, AGENT_SERVICE_START
+from torchrl_auv.evaluation import LyapunovCertificate
 from torchrl_auv.objectives import LyapunovActorCriticLoss, ResidualLACLoss, SelectionRule
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
 from torchrl_auv.training.learner import Learner
@@ -41,6 +43,7 @@ __all__ = [
     "feedback_batch",
     "lac_from_config",
     "lac_optimisers",
+    "lyapunov_certificate",
     "make_lac_loss",
 ]
 
@@ -55,6 +58,7 @@ LAC_LOGGED_KEYS = (
     "loss_qvalue",
     "qvalue",
     "residual",
+    "leg_fraction",
 )
 
 
@@ -78,6 +82,11 @@ def make_lac_loss(
     backup: str = "actor",
     rule: SelectionRule | None = None,
     residual_coef: float | None = None,
+    legs: bool = False,
+    multiplier: str = "dual",
+    lambda_init: float = 1.0,
+    pid_gains: Sequence[float] = (1.0, 0.01, 0.0),
+    constraint: str = "mean",
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
     (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
@@ -92,7 +101,10 @@ def make_lac_loss(
     names). ``residual_coef``: ``actor`` is a residual actor
     (:func:`~torchrl_auv.training.make_residual_actor`), pulled toward the prior with this
     weight (:class:`~torchrl_auv.objectives.ResidualLACLoss`; ``backup`` should be
-    ``"actor"``: the actor acts)."""
+    ``"actor"``: the actor acts). ``legs``: the Lyapunov critic and the decrease condition
+    per approach leg, absorbing at service start (the env's ``("agents", "approach" |
+    "service_start")``; the loss's docstring). ``multiplier``, ``lambda_init``,
+    ``pid_gains``, ``constraint``: the loss's arguments of those names."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
     qvalue = make_q_critic(env, hidden, layer_norm) if cost == "stability" else None
@@ -108,6 +120,10 @@ def make_lac_loss(
         qvalue_network=qvalue,
         backup=backup,
         rule=rule,
+        multiplier=multiplier,
+        lambda_init=lambda_init,
+        pid_gains=tuple(pid_gains),
+        constraint=constraint,
         **residual,
     )
     lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
@@ -124,8 +140,20 @@ def make_lac_loss(
         candidates=(AGENTS, "proposer", "first_actions"),
         anchor=(AGENTS, "proposer", "medoid"),
     )
+    if legs:  # else the loss's defaults, which no env key has: one leg, nothing absorbing
+        loss.set_keys(approach=AGENT_APPROACH, equilibrium=AGENT_SERVICE_START)
     loss.make_value_estimator(gamma=gamma)
     return loss.to(next(actor.parameters()).device)
+
+
+def lyapunov_certificate(loss: LyapunovActorCriticLoss, critic: TensorDictModule):
+    """The :class:`~torchrl_auv.evaluation.LyapunovCertificate` of a LAC run: ``critic`` (the
+    Lyapunov critic the selector ranks with, writing ``LYAPUNOV_RAW``) read with the loss's
+    spec in force and checked against the cost it learns; ``Run.evaluate(...,
+    certificate=...)`` writes ``lyapunov_certificate.json``."""
+    return LyapunovCertificate(
+        critic, loss.spec, raw_key=LYAPUNOV_RAW, cost_key=loss.tensor_keys.cost
+    )
 
 
 def lac_optimisers(
@@ -187,6 +215,11 @@ def lac_from_config(
         lambda_max=optim["lambda_max"],
         loss_function=optim["loss_function"],
         cost=lyapunov["cost"],
+        legs=bool(lyapunov.get("legs", False)),
+        multiplier=optim.get("multiplier", "dual"),
+        lambda_init=optim.get("lambda_init", 1.0),
+        pid_gains=optim.get("pid_gains", (1.0, 0.01, 0.0)),
+        constraint=optim.get("constraint", "mean"),
         hidden=cfg["network"]["hidden"],
         layer_norm=critic_layer_norm(cfg),
         rule=rule,

@@ -239,6 +239,10 @@ class LACOptimConfig:
     loss_function: str = "smooth_l1"  # the critics' TD loss: smooth_l1 (Huber) | l2 (the paper)
     compile: bool = False  # torch.compile of the update
     lambda_max: float = 1.0  # the multiplier's cap
+    multiplier: str = "dual"  # dual (Adam on log lambda, published) | pid | fixed (lambda_init)
+    lambda_init: float = 1.0  # the multiplier's start (fixed: its value; 0 = no constraint)
+    pid_gains: list[float] = field(default_factory=lambda: [1.0, 0.01, 0.0])  # kp, ki, kd
+    constraint: str = "mean"  # mean: lambda E[dL] (published) | hinge: lambda E[max(0, dL)]
 
 
 @dataclass
@@ -264,6 +268,8 @@ class LyapunovConfig:
     form: str = "softplus"  # softplus | squared | log
     stability_weight: float = 0.1  # alpha of the decrease condition
     cost: str = "stability"  # stability (0 in service) | task (the paper's; never vanishes)
+    legs: bool = False  # per approach leg: TD ends at service start (L = 0), the loss and the
+    #   condition on approach transitions only (needs cost=stability; LyapunovActorCriticLoss)
 
 
 @dataclass

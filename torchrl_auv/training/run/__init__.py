@@ -43,7 +43,12 @@ from torchrl_auv.training.run.loggers import (
 )
 from torchrl_auv.training.run.progress import Progress
 from torchrl_auv.training.run.seeding import configure_threads, seed_everything
-from torchrl_auv.training.run.summary import SUMMARY_COLUMNS, write_eval, write_summary
+from torchrl_auv.training.run.summary import (
+    SUMMARY_COLUMNS,
+    write_certificate,
+    write_eval,
+    write_summary,
+)
 from torchrl_auv.training.run.tracking import (
     EPISODE_METRICS,
     RunTracker,
@@ -89,6 +94,7 @@ __all__ = [
     "resume_latest",
     "seed_everything",
     "truncate_curve",
+    "write_certificate",
     "write_checksums",
     "write_episode_video",
     "write_eval",

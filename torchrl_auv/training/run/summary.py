@@ -12,11 +12,14 @@ Examples:
 from __future__ import annotations
 
 import csv
+import json
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-__all__ = ["SUMMARY_COLUMNS", "write_eval", "write_summary"]
+from torchrl_auv.evaluation import CERTIFICATE_KEYS
+
+__all__ = ["SUMMARY_COLUMNS", "write_certificate", "write_eval", "write_summary"]
 
 #: The evaluation columns summary.md shows (eval.csv has every one).
 SUMMARY_COLUMNS = (
@@ -65,4 +68,29 @@ def write_summary(
     lines += ["| " + " | ".join(_fmt(row.get(c, "")) for c in cols) + " |" for row in rows]
     path = Path(run_dir) / "summary.md"
     path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_certificate(rows: list[dict], run_dir: Path, certificate) -> Path:
+    """``run_dir/lyapunov_certificate.json``: per sea state and policy row, the decrease
+    condition on the row's executed approach transitions
+    (``certificate``: the :class:`~torchrl_auv.evaluation.LyapunovCertificate` of the
+    rows; :data:`~torchrl_auv.evaluation.CERTIFICATE_KEYS` without their ``lyapunov_`` prefix:
+    ``transitions``, ``decrease_holds``, ``violation_upper95``, ``delta_mean``), with the
+    Lyapunov spec the critic was read with. Returns its path."""
+    spec = certificate.spec
+    out = {
+        "spec": {"form": spec.form, "alpha": spec.alpha, "prior": spec.prior},
+        "condition": "(1 - e)(1 - d) L(s', a') - L(s, a) + alpha c <= 0 on approach transitions",
+        "rows": [
+            {
+                "sea_state": row["sea_state"],
+                "policy": row["policy"],
+                **{key.removeprefix("lyapunov_"): row[key] for key in CERTIFICATE_KEYS},
+            }
+            for row in rows
+        ],
+    }
+    path = Path(run_dir) / "lyapunov_certificate.json"
+    path.write_text(json.dumps(out, indent=2))
     return path

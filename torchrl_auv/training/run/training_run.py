@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 from omegaconf import DictConfig, OmegaConf
 from torchrl.checkpoint import Checkpoint
 
-from torchrl_auv.evaluation import evaluate
+from torchrl_auv.evaluation import LyapunovCertificate, evaluate
 from torchrl_auv.training.config import check_config, resolve_config
 from torchrl_auv.training.env import held_out_env
 from torchrl_auv.training.run.checkpointing import make_checkpoint, resume_latest
@@ -46,7 +46,12 @@ from torchrl_auv.training.run.lock import LOCK_FILE, acquire_run_folder, release
 from torchrl_auv.training.run.loggers import close_logger, log_metrics, logger_from_config
 from torchrl_auv.training.run.progress import Progress
 from torchrl_auv.training.run.seeding import configure_threads, seed_everything
-from torchrl_auv.training.run.summary import SUMMARY_COLUMNS, write_eval, write_summary
+from torchrl_auv.training.run.summary import (
+    SUMMARY_COLUMNS,
+    write_certificate,
+    write_eval,
+    write_summary,
+)
 from torchrl_auv.training.run.tracking import RunTracker
 from torchrl_auv.training.run.verified_rotation import VerifiedRotation
 
@@ -153,6 +158,7 @@ def _finish_run(
     title: str,
     facts: Mapping[str, object],
     step: int,
+    certificate: LyapunovCertificate | None = None,
 ) -> Path:
     """Evaluate ``policies`` (and nothing else: pass the reference ones in) on the held-out
     ``cfg.eval`` scenes (the run's envs, :func:`~torchrl_auv.training.held_out_env`; rows side
@@ -173,8 +179,11 @@ def _finish_run(
         steps=cfg.eval.steps,
         progress=True,
         workers=workers,
+        transition_stats=certificate,
     )
     facts = {**facts, "evaluation wall time (s)": time.perf_counter() - began}
+    if certificate is not None:
+        facts["Lyapunov certificate"] = write_certificate(rows, run_dir, certificate).name
     video_steps = OmegaConf.select(cfg, "eval.video_steps", default=0) or 0
     if video_steps:  # the first policy (the run's own), one held-out scene (eval.seed)
         name, policy = next(iter(policies.items()))
@@ -296,10 +305,18 @@ class Run:
         return facts
 
     def evaluate(
-        self, policies: Mapping[str, Callable], *, title: str, facts: Mapping[str, object]
+        self,
+        policies: Mapping[str, Callable],
+        *,
+        title: str,
+        facts: Mapping[str, object],
+        certificate: LyapunovCertificate | None = None,
     ) -> Path:
         """The final evaluation on held-out scenes, ``eval.csv``, ``summary.md``; closes the
-        logger (:func:`_finish_run`). Returns the summary's path."""
+        logger (:func:`_finish_run`). With ``certificate``, every row also measures the
+        decrease condition on its executed approach transitions, written to
+        ``lyapunov_certificate.json`` (:func:`write_certificate`). Returns the summary's
+        path."""
         return _finish_run(
             self.cfg,
             self.dir,
@@ -308,4 +325,5 @@ class Run:
             title=title,
             facts=facts,
             step=self.progress.frames,
+            certificate=certificate,
         )

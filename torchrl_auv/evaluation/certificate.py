@@ -1,0 +1,189 @@
+r"""The Lyapunov certificate of a policy: does the decrease condition hold on the transitions
+it executes in held-out scenes?
+
+For each AUV and each decision :math:`t` of an evaluation episode that belongs to an approach
+leg (:mod:`torchrl_auv.iout.legs`: not in service, the same target kept or reached), with the
+executed actions :math:`a_t, a_{t+1}`, the stability cost :math:`c_t` of the decision and a
+Lyapunov function :math:`L` with weight :math:`\alpha`,
+
+.. math::
+
+    \Delta L_t = (1 - e_t)(1 - d_t)\, L(s_{t+1}, a_{t+1}) - L(s_t, a_t) + \alpha\, c_t,
+
+with :math:`e_t = 1` where the decision starts service (the leg's absorbing equilibrium,
+:math:`L = 0`) and :math:`d_t = 1` where the AUV ended the episode. The condition holds at
+:math:`t` when :math:`\Delta L_t \le 0`. A decision whose successor lies past the evaluated
+decisions (and that neither starts service nor ends the episode) is not counted.
+
+:class:`LyapunovCertificate` computes, for one evaluation row, ``lyapunov_transitions``
+(:math:`n`), ``lyapunov_decrease_holds`` (the fraction that satisfy the condition),
+``lyapunov_violation_upper95`` (the one-sided 95 % Clopper-Pearson upper bound on the
+violation rate, :func:`clopper_pearson_upper`) and ``lyapunov_delta_mean``. The bound treats
+the transitions as independent draws; consecutive decisions of one AUV are not, so it is an
+optimistic bound (the scenes, 16 by default, are the independent units).
+
+Examples:
+    >>> round(clopper_pearson_upper(0, 100), 4)  # 1 - 0.05 ** (1 / 100)
+    0.0295
+    >>> clopper_pearson_upper(5, 5)
+    1.0
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from tensordict import NestedKey, TensorDict, TensorDictBase
+
+from torchrl_auv.envs.keys import (
+    AGENT_ACTION,
+    AGENT_APPROACH,
+    AGENT_OBSERVATION,
+    AGENT_SERVICE_START,
+    AGENT_STABILITY_COST,
+)
+from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, lyapunov_value
+
+__all__ = ["CERTIFICATE_KEYS", "LyapunovCertificate", "clopper_pearson_upper"]
+
+#: the row keys :class:`LyapunovCertificate` adds
+CERTIFICATE_KEYS = (
+    "lyapunov_transitions",
+    "lyapunov_decrease_holds",
+    "lyapunov_violation_upper95",
+    "lyapunov_delta_mean",
+)
+
+
+def _binomial_cdf(k: int, n: int, p: float) -> float:
+    """:math:`P(X \\le k)` for :math:`X \\sim B(n, p)`, summed in log space (float64)."""
+    if p <= 0.0:
+        return 1.0
+    if p >= 1.0:
+        return 1.0 if k >= n else 0.0
+    i = torch.arange(k + 1, dtype=torch.float64)
+    log_pmf = (
+        math.lgamma(n + 1)
+        - torch.lgamma(i + 1)
+        - torch.lgamma(n - i + 1)
+        + i * math.log(p)
+        + (n - i) * math.log1p(-p)
+    )
+    return float(torch.logsumexp(log_pmf, 0).exp().clamp(max=1.0))
+
+
+def clopper_pearson_upper(violations: int, n: int, confidence: float = 0.95) -> float:
+    """The one-sided Clopper-Pearson upper bound on a rate from ``violations`` out of ``n``:
+    the :math:`p` at which :math:`P(X \\le k) = 1 - \\text{confidence}` (bisection to
+    1e-12; the Beta(k + 1, n - k) quantile, computed without scipy). 1 for ``n = 0`` or
+    ``k = n``.
+
+    Raises:
+        ValueError: ``violations`` outside ``[0, n]`` or ``confidence`` outside (0, 1).
+    """
+    if not 0 <= violations <= n:
+        raise ValueError(f"violations must be in [0, n={n}], got {violations}")
+    if not 0 < confidence < 1:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    if n == 0 or violations == n:
+        return 1.0
+    tail = 1.0 - confidence
+    low, high = violations / n, 1.0
+    while high - low > 1e-12:
+        mid = 0.5 * (low + high)
+        if _binomial_cdf(violations, n, mid) > tail:
+            low = mid
+        else:
+            high = mid
+    return high
+
+
+class LyapunovCertificate:
+    """The decrease condition on a rollout's executed approach transitions (module
+    docstring): a ``transition_stats`` hook of
+    :func:`~torchrl_auv.evaluation.episode_stats` (picklable with its critic, for evaluation
+    workers).
+
+    Args:
+        critic: a module reading ``observation_key`` and ``action_key`` and writing
+            ``raw_key``, the Lyapunov critic's raw output (the form is ``spec``'s).
+        spec: the Lyapunov form, prior and :math:`\\alpha` (e.g. the loss's ``spec``).
+        raw_key: the critic's output key.
+        cost_key: the cost the critic learns (under ``"next"``; default the stability cost).
+        observation_key, action_key: the per-AUV observation and the executed action.
+
+    Examples:
+        >>> from tensordict.nn import TensorDictModule
+        >>> from torchrl_auv.envs import DataCollectionEnv
+        >>> from torchrl_auv.evaluation import episode_stats, reference_policies
+        >>> env = DataCollectionEnv(batch_size=[2], sea_state="ideal", seed=3, max_steps=30)
+        >>> distance = TensorDictModule(  # a hand-made L: the target distance, any action
+        ...     lambda o, a: o[..., 3:4], [("agents", "observation"), ("agents", "action")],
+        ...     [("agents", "raw")])
+        >>> certify = LyapunovCertificate(distance, LyapunovSpec(form="squared", alpha=0.1),
+        ...                               raw_key=("agents", "raw"))
+        >>> row = episode_stats(env, reference_policies()["expert"](env), 30,
+        ...                     transition_stats=certify)
+        >>> row["lyapunov_transitions"] > 0, 0 <= row["lyapunov_decrease_holds"] <= 1
+        (True, True)
+    """
+
+    def __init__(
+        self,
+        critic,
+        spec: LyapunovSpec,
+        *,
+        raw_key: NestedKey,
+        cost_key: NestedKey = AGENT_STABILITY_COST,
+        observation_key: NestedKey = AGENT_OBSERVATION,
+        action_key: NestedKey = AGENT_ACTION,
+    ) -> None:
+        self.critic, self.spec = critic, spec
+        self.raw_key, self.cost_key = raw_key, cost_key
+        self.observation_key, self.action_key = observation_key, action_key
+
+    def values(self, rollout: TensorDictBase) -> torch.Tensor:
+        """:math:`L(s_t, a_t)` ``[B, T, N]`` of the executed actions."""
+        observation = rollout[self.observation_key]
+        td = TensorDict(
+            {self.observation_key: observation, self.action_key: rollout[self.action_key]},
+            batch_size=observation.shape[:-1],
+        )
+        parameters = getattr(self.critic, "parameters", None)
+        first = next(iter(parameters()), None) if parameters is not None else None
+        if first is not None:  # a critic on a GPU reads the rollout (on the CPU) there
+            td = td.to(first.device)
+        with torch.no_grad():
+            raw = self.critic(td)[self.raw_key].cpu()
+        prior = observation if self.spec.prior else None
+        return lyapunov_value(raw, self.spec, prior)[..., 0]
+
+    def deltas(
+        self, rollout: TensorDictBase, mask: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """:math:`\\Delta L_t` ``[B, T, N]`` and the mask of the counted transitions
+        (module docstring); ``mask`` ``[B, T]``: the decisions of each scene's first
+        episode."""
+        value = self.values(rollout)
+        nxt = rollout["next"]
+        approach = nxt[AGENT_APPROACH][..., 0]
+        absorbed = nxt[AGENT_SERVICE_START][..., 0] | nxt["agents", "terminated"][..., 0]
+        cost = nxt[self.cost_key][..., 0]
+        after = torch.cat([value[:, 1:], torch.zeros_like(value[:, :1])], 1)
+        # the successor is in the same episode (not past the rollout, not a reset's)
+        next_in_episode = torch.cat([mask[:, 1:], torch.zeros_like(mask[:, :1])], 1)
+        delta = torch.where(absorbed, 0.0, after) - value + self.spec.alpha * cost
+        counted = approach & mask[..., None] & (next_in_episode[..., None] | absorbed)
+        return delta, counted
+
+    def __call__(self, rollout: TensorDictBase, mask: torch.Tensor) -> dict[str, float]:
+        delta, counted = self.deltas(rollout, mask)
+        n = int(counted.sum())
+        violations = int((counted & (delta > 0)).sum())
+        return {
+            "lyapunov_transitions": float(n),
+            "lyapunov_decrease_holds": (n - violations) / n if n else float("nan"),
+            "lyapunov_violation_upper95": clopper_pearson_upper(violations, n),
+            "lyapunov_delta_mean": delta[counted].double().mean().item() if n else float("nan"),
+        }
