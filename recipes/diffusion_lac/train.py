@@ -63,19 +63,24 @@ def main(cfg: DictConfig) -> None:
         rule = training.selection_rule_from_config(cfg)
         learner = training.lac_from_config(cfg, env, actor, critic, rule=rule)
         competing = actor if cfg.selection.include_actor else None  # the actor's own action
+        #    lyapunov.filter: the task critic's choice among the candidates that keep the
+        #    decrease condition (else the least L); otherwise argmin L
+        screen = training.lyapunov_filter(learner.loss, critic) if cfg.lyapunov.filter else None
         policy = training.make_selection_policy(
             proposer,
-            critic,
-            mode="lyapunov",
+            critic if screen is None else learner.loss.qvalue_network,
+            mode="lyapunov" if screen is None else "cost",
             loss=learner.loss,
             actor=competing,
-            critic_out_key=training.LYAPUNOV_RAW,
+            critic_out_key=training.LYAPUNOV_RAW if screen is None else training.Q_VALUE,
             rule=rule,
+            constraint=screen,
         )
     advising = training.AdvisorLoop(cfg, run.dir, run.logger, learner.loss)
     buffer = training.buffer_from_config(cfg, run.dir)
     remaining = run.restore(learner, buffer, modules=advising.checkpoint_modules())  # resume
     next_keys = training.next_state_keys(cfg)  # what the critics' backup reads of s'
+    leg_keys = training.leg_keys(cfg)  # lyapunov.legs / filter: the approach-leg flags
     if not bound:
         training.start_deviating(rule, run.progress.frames, cfg)  # after selection.warmup_frames
 
@@ -86,7 +91,7 @@ def main(cfg: DictConfig) -> None:
             training.with_next_prior(data, policy[0])
         elif next_keys:  # the next state's candidates, for the critics' backup
             training.with_next_candidates(data, proposer)
-        buffer.extend(training.select_for_replay(data, next_keys))
+        buffer.extend(training.select_for_replay(data, (*next_keys, *leg_keys)))
         for _ in range(cfg.optim.updates_per_batch):
             out = learner.step(buffer.sample().to(cfg.device))
         metrics = {**learner.metrics(out), **advising.step(run.progress.frames, data, out)}

@@ -262,3 +262,140 @@ def test_both_lac_critics_bootstrap_on_the_candidate_argmin_l_executes():
     torch.testing.assert_close(out["loss_lyapunov"], 0.5 * (l_now - l_target).square().mean())
     torch.testing.assert_close(out["loss_qvalue"], 0.5 * (q_now - q_target).square().mean())
     assert ("next", "proposer", "medoid") in loss.in_keys
+
+
+# -- the Lyapunov filter on the executed candidate ----------------------------------------------
+def _filter_td(n=6, seed=3):
+    """A state with K candidates, the previous pair in the history and the leg flags."""
+    g = torch.Generator().manual_seed(seed)
+    return TensorDict(
+        {
+            "observation": torch.randn(n, OBS, generator=g),
+            ("proposer", "candidates"): torch.rand(n, K, 2, ACT, generator=g) * 2 - 1,
+            ("history", "observation"): torch.randn(n, 3, OBS, generator=g),
+            ("history", "action"): torch.rand(n, 3, ACT, generator=g) * 2 - 1,
+            ("history", "mask"): torch.ones(n, 3, dtype=torch.bool),
+            "cost": torch.rand(n, 1, generator=g),
+            "approach": torch.ones(n, 1, dtype=torch.bool),
+            "service_start": torch.zeros(n, 1, dtype=torch.bool),
+        },
+        batch_size=[n],
+    )
+
+
+@pytest.mark.parametrize("anchored", [False, True])
+def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasible(anchored):
+    """LyapunovFilter + mode "cost": where the previous decision is on a leg that goes on,
+    the executed candidate is the least task cost among those with L(s, a_k) <= L(s_prev,
+    a_prev) - alpha c_prev (the anchored rule among them: an infeasible medoid is left), the
+    least L where none is; off a leg (or without the previous pair) the plain choice."""
+    from torchrl_auv.modules import LyapunovFilter
+
+    torch.manual_seed(0)
+    lyap, task = _critic(), _critic(out_keys=["task_q"])
+    spec = LyapunovSpec(form="softplus", alpha=0.4)
+    rule = SelectionRule(anchor="medoid") if anchored else None
+    selector = CandidateSelector(
+        task,
+        mode="cost",
+        critic_out_key="task_q",
+        constraint=LyapunovFilter(lyap, spec=spec),
+        rule=rule,
+    )
+    td = _filter_td(n=12)
+    td["approach"][10] = False  # decision 10: off a leg; decision 11: a reset, no history
+    td["history", "mask"][11, -1] = False
+    out = selector(td.clone())
+
+    first = td["proposer", "candidates"][..., 0, :]
+    obs = td["observation"].unsqueeze(-2).expand(-1, K, -1)
+    l_params, q_params = TensorDict.from_module(lyap), TensorDict.from_module(task)
+    with torch.no_grad():
+        l_now = lyapunov_value(_linear(l_params, obs, first), spec)[..., 0]
+        previous = (td["history", "observation"][:, -1], td["history", "action"][:, -1])
+        before = lyapunov_value(_linear(l_params, *previous), spec)[:, 0]
+        q = _linear(q_params, obs, first)[..., 0]
+    torch.testing.assert_close(out["selector", "lyapunov"], l_now)
+    feasible = l_now <= (before - 0.4 * td["cost"][:, 0])[:, None]
+    feasible[10:] = True
+    assert torch.equal(out["selector", "feasible"], feasible)
+    none = ~feasible.any(-1)
+    some = feasible.any(-1) & ~feasible.all(-1)
+    assert none.any() and some.any()  # the numbers cover both cases
+    cost = q.masked_fill(~feasible, float("inf"))
+    expected = cost.argmin(-1)
+    if anchored:  # one critic: deviate where the best feasible costs less than the medoid
+        anchor = out["selector", "anchor"]
+        medoid_cost = cost.gather(-1, anchor[:, None])[:, 0]
+        expected = torch.where(cost.min(-1).values < medoid_cost, expected, anchor)
+    expected = torch.where(none, l_now.argmin(-1), expected)
+    assert torch.equal(out["selector", "index"], expected)
+
+
+@pytest.mark.parametrize("anchored", [False, True])
+def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(anchored):
+    """filter_candidates=True: at s' the target task critic's choice among the candidates
+    with L'(s', a'_k) <= L'(s, a) - alpha c (on a leg that goes on), else the least L'; both
+    TD targets bootstrap on it. Refused without a task critic or the candidate backup."""
+    torch.manual_seed(1)
+    q = _critic(out_keys=["task_q"])
+    rule = SelectionRule(anchor="medoid") if anchored else SelectionRule()
+    spec = LyapunovSpec(form="softplus", alpha=0.3)
+    loss = LyapunovActorCriticLoss(
+        _actor(),
+        _critic(),
+        qvalue_network=q,
+        spec=spec,
+        backup="candidates",
+        rule=rule,
+        filter_candidates=True,
+    )
+    loss.set_keys(qvalue="task_q", task_cost="cost")
+    loss.make_value_estimator(gamma=0.9)
+    n = 16
+    td = _batch(n=n, seed=4, terminated_rows=(0,))
+    td["next", "approach"] = torch.ones(n, 1, dtype=torch.bool)
+    td["next", "approach"][1] = False  # off a leg
+    td["next", "service_start"] = torch.zeros(n, 1, dtype=torch.bool)
+    td["next", "service_start"][2] = True  # the leg ends: L(s') = 0, no filter
+    nxt, rows = td["next"], torch.arange(n)
+    cands, anchor = nxt["proposer", "first_actions"], nxt["proposer", "medoid"]
+    obs = nxt["observation"].unsqueeze(-2).expand(-1, K, -1)
+    target_l, target_q = loss.target_lyapunov_network_params, loss.target_qvalue_network_params
+    with torch.no_grad():
+        values = lyapunov_value(_linear(target_l, obs, cands), spec)[..., 0]
+        own = lyapunov_value(_linear(target_l, td["observation"], td["action"]), spec)[:, 0]
+        q_next = _linear(target_q, obs, cands)[..., 0]
+    cost = nxt["cost"][:, 0]
+    goes_on = nxt["approach"][:, 0] & ~nxt["service_start"][:, 0] & ~nxt["terminated"][:, 0]
+    bound = torch.where(goes_on, own - 0.3 * cost, torch.inf)
+    feasible = values <= bound[:, None]
+    scores = (-q_next).masked_fill(~feasible, -1e9)
+    index = rule.choose(scores, scores, anchor)
+    index = torch.where(feasible.any(-1), index, values.argmin(-1))
+    none, some = ~feasible.any(-1), feasible.any(-1) & ~feasible.all(-1)
+    assert none.any() and some.any()  # the numbers cover both cases
+    assert not torch.equal(index, values.argmin(-1))  # and the filter changes the choice
+    chosen = cands[rows, index]
+    absorbing = (~nxt["terminated"][:, 0] & ~nxt["service_start"][:, 0]).float()
+    l_target = cost + 0.9 * absorbing * values[rows, index]
+    q_target = (
+        cost
+        + 0.9
+        * (~nxt["terminated"][:, 0]).float()
+        * _linear(target_q, nxt["observation"], chosen)[:, 0]
+    )
+    l_now = lyapunov_value(
+        _linear(loss.lyapunov_network_params, td["observation"], td["action"]), spec
+    )[:, 0]
+    q_now = _linear(loss.qvalue_network_params, td["observation"], td["action"])[:, 0]
+    on = nxt["approach"][:, 0].float()
+    out = loss(td)
+    torch.testing.assert_close(
+        out["loss_lyapunov"], (0.5 * (l_now - l_target).square() * on).sum() / on.sum()
+    )
+    torch.testing.assert_close(out["loss_qvalue"], 0.5 * (q_now - q_target).square().mean())
+    with pytest.raises(ValueError, match="filter_candidates=True"):
+        LyapunovActorCriticLoss(_actor(), _critic(), backup="candidates", filter_candidates=True)
+    with pytest.raises(ValueError, match="filter_candidates=True"):
+        LyapunovActorCriticLoss(_actor(), _critic(), qvalue_network=q, filter_candidates=True)

@@ -233,6 +233,11 @@ def test_legs_mask_the_critic_and_the_condition_and_the_equilibrium_absorbs(cons
     out = loss(data)
     _check(out, expected)
     assert out["leg_fraction"] == pytest.approx(4 / 6)
+    # keys set with set_keys that the data lack are refused, not read as "no legs"
+    named = _loss(spec, mode, constraint=constraint)
+    named.set_keys(approach=("agents", "approach"))
+    with pytest.raises(ValueError, match=r"the approach key \('agents', 'approach'\)"):
+        named(data)
     # the masks matter: without the flags the numbers differ
     plain = loss(_data())
     assert not torch.allclose(plain["loss_lyapunov"], out["loss_lyapunov"])

@@ -61,10 +61,12 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
         if recipe == "diffusion_rl"
         else []
     )
-    # Diffusion+RL (LAC) on approach legs with the PID multiplier and the hinge (optim.*)
+    # Diffusion+RL (LAC) on approach legs, the filtered selection, the PID multiplier and the
+    # hinge (optim.*)
     legs = (
         [
             "lyapunov.legs=true",
+            "lyapunov.filter=true",
             "optim.multiplier=pid",
             "optim.lambda_max=100",
             "optim.constraint=hinge",

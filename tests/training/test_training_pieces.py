@@ -38,6 +38,19 @@ from torchrl_auv.objectives import LyapunovSpec, LyapunovSpecState
         ({"optim": {"updates_per_batch": 0}}, "optim.updates_per_batch"),
         ({"network": {"critics": 0}}, "network.critics"),
         ({"network": {"layer_norm": "yes"}}, "network.layer_norm"),
+        ({"optim": {"multiplier": "adam"}}, "optim.multiplier"),
+        ({"optim": {"constraint": "quantile"}}, "optim.constraint"),
+        ({"optim": {"pid_gains": [1.0, -0.1, 0.0]}}, "optim.pid_gains"),
+        ({"optim": {"pid_gains": [1.0, 0.1]}}, "optim.pid_gains"),
+        ({"optim": {"multiplier": "dual", "lambda_init": 0.0}}, "optim.lambda_init"),
+        ({"optim": {"lambda_init": 5.0, "lambda_max": 1.0}}, "optim.lambda_init"),
+        ({"lyapunov": {"legs": True, "cost": "task"}}, "lyapunov.legs"),
+        ({"lyapunov": {"filter": True, "cost": "task"}}, "lyapunov.cost"),
+        (
+            {"lyapunov": {"filter": True}, "selection": {"backup": "actor"}},
+            "selection.backup",
+        ),
+        ({"lyapunov": {"filter": True}, "residual": {"bound": 0.2}}, "residual.bound"),
     ],
 )
 def test_check_choices_names_the_key(cfg, named):

@@ -1,6 +1,6 @@
 """Neural modules: the diffusion proposer (its noise models and noise schedules), the candidate
-selector and its selection rule, the Q ensemble, the Lyapunov forms and the one Lyapunov spec
-that a loss and its selectors share.
+selector, its selection rule and its Lyapunov filter, the Q ensemble, the Lyapunov forms and
+the one Lyapunov spec that a loss and its selectors share.
 
 Owns the TensorDict modules policies are built from (``objectives`` holds the losses, which
 train them). Independent of our envs: a module reads keys and specs, so it works on any TorchRL
@@ -17,6 +17,7 @@ from torchrl_auv.modules.consensus import (
     pick_candidate,
 )
 from torchrl_auv.modules.diffusion_schedule import SAMPLERS, SCHEDULES, NoiseSchedule
+from torchrl_auv.modules.lyapunov_filter import LyapunovFilter
 from torchrl_auv.modules.lyapunov_forms import (
     FORMS,
     PRIORS,
@@ -46,6 +47,7 @@ __all__ = [
     "SELECTION_MODES",
     "CandidateSelector",
     "DiffusionProposer",
+    "LyapunovFilter",
     "LyapunovSpec",
     "LyapunovSpecState",
     "MLPNoiseModel",

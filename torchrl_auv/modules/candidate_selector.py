@@ -20,12 +20,15 @@ from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
 from tensordict.nn import TensorDictModuleBase
 
 from torchrl_auv.modules.consensus import medoid_index
+from torchrl_auv.modules.lyapunov_filter import LyapunovFilter
 from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
 from torchrl_auv.modules.selection_rule import SelectionRule
 
 __all__ = ["SELECTION_MODES", "CandidateSelector"]
 
-SELECTION_MODES = ("q", "lyapunov")
+SELECTION_MODES = ("q", "lyapunov", "cost")
+#: the score an infeasible candidate gets (finite: differences of two stay 0, not nan)
+INFEASIBLE_SCORE = -1.0e9
 
 
 class CandidateSelector(TensorDictModuleBase):
@@ -46,7 +49,8 @@ class CandidateSelector(TensorDictModuleBase):
             ``state_value`` when its action key is nested, e.g. ``("agents", "action")``). A
             critic that does not write ``critic_out_key`` raises a ``KeyError`` naming the key
             and the keys the critic wrote.
-        mode: ``"q"`` (argmax Q) or ``"lyapunov"`` (argmin L, the raw output through ``spec``).
+        mode: ``"q"`` (argmax Q), ``"lyapunov"`` (argmin L, the raw output through ``spec``)
+            or ``"cost"`` (argmin of a critic of a cost, e.g. LAC's task critic).
         spec: the Lyapunov form (mode ``"lyapunov"``; default softplus).
         exploration: ``None``, ``"softmax"`` (sample from softmax(scores / temperature)) or
             ``"epsilon"`` (a uniformly random candidate with probability ``epsilon``).
@@ -57,6 +61,11 @@ class CandidateSelector(TensorDictModuleBase):
             (:class:`~torchrl_auv.modules.SelectionRule`; default: the best). With a critic
             that has ``members`` (:class:`~torchrl_auv.modules.QEnsembleCritic`, mode
             ``"q"``) the rule compares the reduced score with the members' maximum.
+        constraint: a :class:`~torchrl_auv.modules.LyapunovFilter`: where it applies, only
+            the candidates that keep the decrease condition may be executed (the others
+            score :data:`INFEASIBLE_SCORE` before the rule), and where none does, the one of
+            least :math:`L`; writes ``("selector", "feasible")`` and ``("selector",
+            "lyapunov")`` (each candidate's :math:`L(s, a_k)`) ``[*B, K]``.
 
     Examples:
         >>> from torchrl.modules import MLP, ValueOperator
@@ -87,6 +96,7 @@ class CandidateSelector(TensorDictModuleBase):
         critic_out_key: NestedKey = "state_action_value",
         generator: torch.Generator | None = None,
         rule: SelectionRule | None = None,
+        constraint: LyapunovFilter | None = None,
     ) -> None:
         super().__init__()
         if mode not in SELECTION_MODES:
@@ -108,6 +118,7 @@ class CandidateSelector(TensorDictModuleBase):
         self.include_actor_action = include_actor_action
         self.generator = generator
         self.rule = rule if rule is not None else SelectionRule()
+        self.constraint = constraint
         self.candidates_key = unravel_key(candidates_key)
         self.observation_key = unravel_key(observation_key)
         self.action_key = unravel_key(action_key)
@@ -124,6 +135,8 @@ class CandidateSelector(TensorDictModuleBase):
         ]
         if self.rule.anchored:
             self.out_keys.append((*self.selector_key, "anchor"))
+        if constraint is not None:
+            self.out_keys += [(*self.selector_key, "feasible"), (*self.selector_key, "lyapunov")]
 
     @property
     def spec(self) -> LyapunovSpec:
@@ -180,8 +193,9 @@ class CandidateSelector(TensorDictModuleBase):
         raw = out.get(self.critic_out_key, None)
         if raw is None:
             raise self._missing_critic_output(out)
-        if self.mode == "q":
-            return raw[..., 0], raw[..., 0], raw[..., 0].unsqueeze(0)
+        if self.mode in ("q", "cost"):
+            score = raw[..., 0] if self.mode == "q" else -raw[..., 0]
+            return score, score, score.unsqueeze(0)
         spec = self.spec
         score = -lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
         return score, score, score.unsqueeze(0)
@@ -215,12 +229,21 @@ class CandidateSelector(TensorDictModuleBase):
                 raise ValueError(f"actor_action_key {self.actor_action_key!r} is missing")
             first = torch.cat([first, own.unsqueeze(-2)], -2)
         scores, upper, members = self.member_scores(observation, first)
+        if self.constraint is not None:
+            feasible, values, applies = self.constraint(tensordict, first)
+            scores, upper, members = (
+                x.masked_fill(~feasible, INFEASIBLE_SCORE) for x in (scores, upper, members)
+            )
+            tensordict.set((*self.selector_key, "feasible"), feasible)
+            tensordict.set((*self.selector_key, "lyapunov"), values)
         ranking = scores.argsort(-1, descending=True)
         index = ranking[..., 0]
         if self.rule.anchored:
             anchor = medoid_index(candidates if chunked else candidates.unsqueeze(-2))
             index = self.rule.choose(scores, upper, anchor, members=members)
             tensordict.set((*self.selector_key, "anchor"), anchor)
+        if self.constraint is not None:  # none feasible: the least violation
+            index = torch.where(applies & ~feasible.any(-1), values.argmin(-1), index)
         # draws on the generator's device (a CPU generator for a selector on a GPU)
         draw_on = scores.device if self.generator is None else self.generator.device
         if self.exploration == "softmax":

@@ -109,6 +109,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import ValueEstimators
 
+from torchrl_auv.modules.candidate_selector import INFEASIBLE_SCORE
 from torchrl_auv.modules.lyapunov_forms import (
     FORMS,
     LyapunovSpec,
@@ -186,6 +187,11 @@ class LyapunovActorCriticLoss(LossModule):
             0 for ``"pid"`` and ``"fixed"``.
         pid_gains: ``(kp, ki, kd)`` >= 0 of the ``"pid"`` multiplier (per unit of
             :math:`\\Delta L`; default ``(1, 0.01, 0)``).
+        filter_candidates: the backup follows a selector with a
+            :class:`~torchrl_auv.modules.LyapunovFilter` that ranks by the task critic
+            (needs ``qvalue_network`` and ``backup="candidates"``): at :math:`s'` the task
+            critic's choice among the candidates that keep the decrease condition of the
+            transition, else the least :math:`L`.
 
     Keys (``set_keys``): ``action``, ``reward``, ``cost`` (the Lyapunov critic's cost; ``-reward``
     when the default ``"cost"`` is absent; a key set with ``set_keys`` must be in the data),
@@ -274,8 +280,15 @@ class LyapunovActorCriticLoss(LossModule):
         constraint: str = "mean",
         multiplier: str = "dual",
         pid_gains: tuple[float, float, float] = (1.0, 0.01, 0.0),
+        filter_candidates: bool = False,
     ) -> None:
         check_backup(backup)
+        if filter_candidates and (qvalue_network is None or backup != "candidates"):
+            raise ValueError(
+                "filter_candidates=True bootstraps on the task critic's choice among the "
+                "candidates that keep the decrease condition: it needs a qvalue_network and "
+                f"backup='candidates', got qvalue_network={qvalue_network!r}, backup={backup!r}"
+            )
         if constraint not in CONSTRAINTS:
             raise ValueError(f"constraint must be one of {CONSTRAINTS}, got {constraint!r}")
         if multiplier not in MULTIPLIERS:
@@ -319,6 +332,7 @@ class LyapunovActorCriticLoss(LossModule):
         self.mode, self.loss_function = mode, loss_function
         self.lambda_max = float(lambda_max)
         self.constraint, self.multiplier = constraint, multiplier
+        self.filter_candidates = bool(filter_candidates)
         self.pid_gains = tuple(float(gain) for gain in pid_gains)
         # the dual's parameter (multiplier "dual"); kept for the others so that optimisers
         # and state dicts have one shape
@@ -495,19 +509,35 @@ class LyapunovActorCriticLoss(LossModule):
                 self.qvalue_network,
             )
 
-    def _executed_next(self, next_td: TensorDictBase) -> tuple[torch.Tensor, torch.Tensor]:
-        """The candidate the selector executes at the next state (argmin of the target
-        critic's :math:`L(s', a'_k)` under ``rule``) and its target value ``[*B, 1]``."""
+    def _executed_next(
+        self, next_td: TensorDictBase, bound: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The candidate the selector executes at the next state and its target value
+        :math:`L_{target}(s', a')` ``[*B, 1]``: argmin of :math:`L_{target}(s', a'_k)` under
+        ``rule``; with ``filter_candidates``, the ``rule``'s choice by the target task critic
+        (least :math:`Q_{target}(s', a'_k)`) among the candidates with :math:`L_{target}(s',
+        a'_k) \\le` ``bound`` (``[*B, 1]``; ``inf`` where the filter does not apply), and the
+        least :math:`L_{target}` where none is (:class:`~torchrl_auv.modules.LyapunovFilter`'s
+        rule, with the transition's own :math:`L_{target}(s, a) - \alpha c` as the bound)."""
         candidates, anchor = next_candidates(
             next_td, self.tensor_keys.candidates, self.tensor_keys.anchor, self.rule
         )
         action_key = self.tensor_keys.action
         inputs = {*self.lyapunov_network.in_keys, self.tensor_keys.observation} - {action_key}
+        if self.qvalue_network is not None:
+            inputs |= set(self.qvalue_network.in_keys) - {action_key}
         td = per_candidate(
             next_td, [k for k in inputs if next_td.get(k, None) is not None], candidates.shape[-2]
         )
         values = self._lyapunov(td, candidates, self.target_lyapunov_network_params)[..., 0]
-        index = self.rule.choose(-values, -values, anchor)  # [..., K] -> [...]
+        if bound is None:
+            index = self.rule.choose(-values, -values, anchor)  # [..., K] -> [...]
+        else:
+            feasible = values <= bound
+            q = self._qvalue(td, candidates, self.target_qvalue_network_params)[..., 0]
+            scores = (-q).masked_fill(~feasible, INFEASIBLE_SCORE)
+            index = self.rule.choose(scores, scores, anchor)
+            index = torch.where(feasible.any(-1), index, values.argmin(-1))
         pick = index[..., None, None].expand(*index.shape, 1, candidates.shape[-1])
         next_action = candidates.gather(-2, pick).squeeze(-2)
         return next_action, values.gather(-1, index.unsqueeze(-1))
@@ -553,10 +583,18 @@ class LyapunovActorCriticLoss(LossModule):
         """``(on_leg, at_equilibrium)`` as float masks shaped like ``cost``: the transitions
         the Lyapunov critic and the decrease condition are about (the ``approach`` key; all
         when the data have none) and those that reach the absorbing equilibrium (the
-        ``equilibrium`` key, where :math:`L(s') = 0`; none when absent)."""
+        ``equilibrium`` key, where :math:`L(s') = 0`; none when absent). A key set with
+        ``set_keys`` that the data lack is a ``ValueError``, not a request for the default."""
         masks = []
         for name, default in (("approach", 1.0), ("equilibrium", 0.0)):
-            flag = next_td.get(getattr(self.tensor_keys, name), None)
+            key = getattr(self.tensor_keys, name)
+            flag = next_td.get(key, None)
+            if flag is None and key != getattr(self.default_keys(), name):
+                have = sorted(str(k) for k in next_td.keys(True, True))
+                raise ValueError(
+                    f"the {name} key {key!r} (set with set_keys) is not in the data's 'next' "
+                    f"entry, which has {have}: store it (training.LEG_KEYS)"
+                )
             masks.append(
                 torch.full_like(cost, default)
                 if flag is None
@@ -588,7 +626,13 @@ class LyapunovActorCriticLoss(LossModule):
         leg_continues = continues * (1 - at_equilibrium)
         with torch.no_grad():
             if self.backup == "candidates":
-                next_action, next_value = self._executed_next(next_td)
+                bound = None
+                if self.filter_candidates:  # the filter applies on a leg that goes on
+                    own = self._lyapunov(td, action, self.target_lyapunov_network_params)
+                    alpha = self.spec_state.last_set.alpha
+                    applies = (on_leg * leg_continues) > 0
+                    bound = torch.where(applies, own - alpha * cost, torch.inf)
+                next_action, next_value = self._executed_next(next_td, bound)
             else:
                 next_action, _ = self._sample(next_td, actor_params.detach())
                 next_value = self._lyapunov(

@@ -38,19 +38,25 @@ __all__ = ["executed_lyapunov", "lyapunov_trace", "write_lyapunov_trace"]
 
 SCORES = ("agents", "selector", "scores")
 INDEX = ("agents", "selector", "index")
+#: each candidate's L where the selector ranks by another critic (a LyapunovFilter's)
+LYAPUNOV = ("agents", "selector", "lyapunov")
 
 
 def executed_lyapunov(rollout: TensorDictBase) -> torch.Tensor:
     """``L(s_t, a_t)`` of the executed candidate, ``[B * N, T]`` (scene-major), NaN after the
-    scene's first ``done`` (its first episode only)."""
+    scene's first ``done`` (its first episode only): from the selector's ``lyapunov`` entry
+    where it has one (a filtered selection), else its scores (:math:`-L`)."""
     missing = [key for key in (SCORES, INDEX) if key not in rollout.keys(True, True)]
     if missing:
         raise KeyError(
             f"the rollout has no {missing}: roll out a policy whose last module is "
             "a CandidateSelector in mode 'lyapunov' (the diffusion_lac policy)"
         )
-    scores, index = rollout[SCORES], rollout[INDEX]
-    value = -torch.gather(scores, -1, index[..., None])[..., 0]  # [B, T, N]
+    index = rollout[INDEX]
+    if LYAPUNOV in rollout.keys(True, True):  # a filtered selection ranks by another critic
+        value = torch.gather(rollout[LYAPUNOV], -1, index[..., None])[..., 0]  # [B, T, N]
+    else:
+        value = -torch.gather(rollout[SCORES], -1, index[..., None])[..., 0]
     done = rollout["next", "done"][..., 0]  # [B, T]
     ended_before = (done.cumsum(-1) - done.long()) > 0  # steps after the first done
     value = torch.where(ended_before[..., None], torch.nan, value.double())

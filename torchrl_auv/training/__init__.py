@@ -103,13 +103,16 @@ from torchrl_auv.training.keys import (
 )
 from torchrl_auv.training.lac import (
     LAC_LOGGED_KEYS,
+    LEG_KEYS,
     LYAPUNOV_COSTS,
     AdvisorLoop,
     advisor_from_config,
     feedback_batch,
     lac_from_config,
     lac_optimisers,
+    leg_keys,
     lyapunov_certificate,
+    lyapunov_filter,
     make_lac_loss,
 )
 from torchrl_auv.training.learner import Learner, gradient_step
@@ -228,6 +231,7 @@ __all__ = [
     "EPISODE_METRICS",
     "FIRST_STAGE_VERSION",
     "LAC_LOGGED_KEYS",
+    "LEG_KEYS",
     "LYAPUNOV_COSTS",
     "LYAPUNOV_RAW",
     "NEXT_ANCHOR",
@@ -321,9 +325,11 @@ __all__ = [
     "held_out_env",
     "lac_from_config",
     "lac_optimisers",
+    "leg_keys",
     "log_metrics",
     "logger_from_config",
     "lyapunov_certificate",
+    "lyapunov_filter",
     "make_actor",
     "make_checkpoint",
     "make_collector",

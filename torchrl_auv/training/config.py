@@ -86,6 +86,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "network.layer_norm": (True, False),
         "lyapunov.cost": ("task", "stability"),
         "lyapunov.legs": (True, False),
+        "lyapunov.filter": (True, False),
         "optim.multiplier": MULTIPLIERS,
         "optim.constraint": CONSTRAINTS,
     }
@@ -191,6 +192,21 @@ def check_multiplier(cfg: Mapping) -> None:
             "lyapunov.legs=true ends the Lyapunov critic's TD target at service start, where "
             "only the stability cost is 0: it needs lyapunov.cost=stability, got task"
         )
+    if _get(cfg, "lyapunov.filter"):
+        needs = {
+            "lyapunov.cost": ("stability", "the task critic ranks the feasible candidates"),
+            "selection.backup": ("candidates", "the critics bootstrap on the filtered choice"),
+        }
+        for key, (value, why) in needs.items():
+            if _get(cfg, key) not in (None, value):
+                raise ValueError(
+                    f"lyapunov.filter=true needs {key}={value} ({why}), got {_get(cfg, key)!r}"
+                )
+        if _get(cfg, "residual.bound"):
+            raise ValueError(
+                "lyapunov.filter=true filters the selection's candidates: it needs the "
+                f"selection (residual.bound=0), got residual.bound={_get(cfg, 'residual.bound')!r}"
+            )
 
 
 def resolve_config(cfg) -> dict:

@@ -25,6 +25,7 @@ from torchrl.objectives import SoftUpdate
 from torchrl_auv import advisor as advisors
 from torchrl_auv.envs.keys import AGENT_APPROACH, AGENT_SERVICE_START
 from torchrl_auv.evaluation import LyapunovCertificate
+from torchrl_auv.modules import LyapunovFilter
 from torchrl_auv.objectives import LyapunovActorCriticLoss, ResidualLACLoss, SelectionRule
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
 from torchrl_auv.training.learner import Learner
@@ -37,13 +38,16 @@ from torchrl_auv.training.residual import backup_and_residual
 
 __all__ = [
     "LAC_LOGGED_KEYS",
+    "LEG_KEYS",
     "LYAPUNOV_COSTS",
     "AdvisorLoop",
     "advisor_from_config",
     "feedback_batch",
     "lac_from_config",
     "lac_optimisers",
+    "leg_keys",
     "lyapunov_certificate",
+    "lyapunov_filter",
     "make_lac_loss",
 ]
 
@@ -60,6 +64,17 @@ LAC_LOGGED_KEYS = (
     "residual",
     "leg_fraction",
 )
+
+
+#: The approach-leg flags a replay buffer stores for ``lyapunov.legs`` or ``lyapunov.filter``
+LEG_KEYS = (("next", *AGENT_APPROACH), ("next", *AGENT_SERVICE_START))
+
+
+def leg_keys(cfg: Mapping) -> tuple:
+    """:data:`LEG_KEYS` where the loss reads them (``cfg.lyapunov.legs`` or ``filter``), else
+    nothing (:func:`~torchrl_auv.training.select_for_replay`'s ``extra_keys``)."""
+    lyapunov = cfg.get("lyapunov", None) or {}
+    return LEG_KEYS if lyapunov.get("legs", False) or lyapunov.get("filter", False) else ()
 
 
 #: ``lyapunov.cost`` choices: which cost the Lyapunov critic learns (the loss's docstring)
@@ -87,6 +102,7 @@ def make_lac_loss(
     lambda_init: float = 1.0,
     pid_gains: Sequence[float] = (1.0, 0.01, 0.0),
     constraint: str = "mean",
+    filter_candidates: bool = False,
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
     (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
@@ -104,7 +120,8 @@ def make_lac_loss(
     ``"actor"``: the actor acts). ``legs``: the Lyapunov critic and the decrease condition
     per approach leg, absorbing at service start (the env's ``("agents", "approach" |
     "service_start")``; the loss's docstring). ``multiplier``, ``lambda_init``,
-    ``pid_gains``, ``constraint``: the loss's arguments of those names."""
+    ``pid_gains``, ``constraint``, ``filter_candidates``: the loss's arguments of those
+    names."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
     qvalue = make_q_critic(env, hidden, layer_norm) if cost == "stability" else None
@@ -124,6 +141,7 @@ def make_lac_loss(
         lambda_init=lambda_init,
         pid_gains=tuple(pid_gains),
         constraint=constraint,
+        filter_candidates=filter_candidates,
         **residual,
     )
     lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
@@ -154,6 +172,24 @@ def lyapunov_certificate(loss: LyapunovActorCriticLoss, critic: TensorDictModule
     return LyapunovCertificate(
         critic, loss.spec, raw_key=LYAPUNOV_RAW, cost_key=loss.tensor_keys.cost
     )
+
+
+def lyapunov_filter(loss: LyapunovActorCriticLoss, critic: TensorDictModule) -> LyapunovFilter:
+    """The :class:`~torchrl_auv.modules.LyapunovFilter` of a LAC run on the agents layout:
+    ``critic`` (the Lyapunov critic), the history's last pair, the cost the critic learns and
+    the env's approach-leg flags; the loss's spec shared with it (an advisor's new spec reaches
+    it)."""
+    screen = LyapunovFilter(
+        critic,
+        raw_key=LYAPUNOV_RAW,
+        observation_key=OBSERVATION,
+        action_key=ACTION,
+        history_key=(AGENTS, "history"),
+        cost_key=loss.tensor_keys.cost,
+        on_leg_key=AGENT_APPROACH,
+        equilibrium_key=AGENT_SERVICE_START,
+    )
+    return loss.share_spec(screen)
 
 
 def lac_optimisers(
@@ -220,6 +256,7 @@ def lac_from_config(
         lambda_init=optim.get("lambda_init", 1.0),
         pid_gains=optim.get("pid_gains", (1.0, 0.01, 0.0)),
         constraint=optim.get("constraint", "mean"),
+        filter_candidates=bool(lyapunov.get("filter", False)),
         hidden=cfg["network"]["hidden"],
         layer_norm=critic_layer_norm(cfg),
         rule=rule,

@@ -24,7 +24,7 @@ from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.modules import ProbabilisticActor
 
 from torchrl_auv.evaluation import SameRowAs, reference_policies
-from torchrl_auv.modules import DiffusionProposer, ProposerAlone
+from torchrl_auv.modules import DiffusionProposer, LyapunovFilter, ProposerAlone
 from torchrl_auv.objectives import CandidateSelector, LyapunovActorCriticLoss, SelectionRule
 from torchrl_auv.training.keys import ACTION, ACTOR_ACTION, AGENTS, OBSERVATION
 from torchrl_auv.training.residual import residual_bound
@@ -61,6 +61,7 @@ def make_selection_policy(
     actor: ProbabilisticActor | None = None,
     loss: LyapunovActorCriticLoss | None = None,
     rule: SelectionRule | None = None,
+    constraint: LyapunovFilter | None = None,
 ) -> TensorDictSequential:
     """Proposer, then (with ``actor``) the actor's own action, then the selector: argmax Q
     (``mode="q"``) or argmin L (``"lyapunov"``) over the K candidates' first actions (and the
@@ -69,10 +70,15 @@ def make_selection_policy(
     (:meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.share_spec`): an advisor's or a
     checkpoint's new spec reaches the selector, and with its weights the workers. ``rule``:
     which scored candidate is executed (default: the best; the learner's candidate backup
-    should share it, :func:`~torchrl_auv.training.selection_rule_from_config`)."""
-    if loss is not None and mode != "lyapunov":
+    should share it, :func:`~torchrl_auv.training.selection_rule_from_config`).
+    ``constraint``: a :class:`~torchrl_auv.modules.LyapunovFilter` (e.g.
+    :func:`~torchrl_auv.training.lyapunov_filter`; the loss's spec shared with it): only the
+    candidates that keep the decrease condition may be executed, ranked by ``critic`` (e.g.
+    LAC's task critic, ``mode="cost"``)."""
+    if loss is not None and mode != "lyapunov" and constraint is None:
         raise ValueError(
-            f"loss (the owner of the Lyapunov spec) needs mode='lyapunov', got {mode!r}"
+            f"loss (the owner of the Lyapunov spec) needs mode='lyapunov' or a constraint, "
+            f"got mode {mode!r} and no constraint"
         )
     selector = CandidateSelector(
         critic,
@@ -85,9 +91,12 @@ def make_selection_policy(
         critic_action_key=ACTION,
         critic_out_key=critic_out_key,
         rule=rule,
+        constraint=constraint,
     )
     if loss is not None:
-        loss.share_spec(selector)
+        for reader in (selector if mode == "lyapunov" else None, constraint):
+            if reader is not None:
+                loss.share_spec(reader)
     parts = [proposer] + ([acting_actor(actor)] if actor is not None else []) + [selector]
     return TensorDictSequential(*parts)
 

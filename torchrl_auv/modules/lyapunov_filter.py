@@ -1,0 +1,123 @@
+r"""``LyapunovFilter``: the decrease condition applied to the action that is executed.
+
+At decision :math:`t`, with the previous decision's state :math:`s_{t-1}`, its executed action
+:math:`a_{t-1}` and its cost :math:`c_{t-1}` (the state-action history's last pair and the
+env's cost observation), a candidate first action :math:`a_k` is **feasible** when executing
+it keeps the Lyapunov decrease condition of the transition just made,
+
+.. math::
+
+    L(s_t, a_k) - L(s_{t-1}, a_{t-1}) + \alpha\, c_{t-1} \le 0 .
+
+The filter applies where the previous decision was part of an approach leg that goes on (the
+``on_leg`` flag set, the ``equilibrium`` flag not: :mod:`torchrl_auv.iout.legs`) and the
+history holds that pair; elsewhere (after a reset, in service, after a target switch) every
+candidate is feasible. Where it applies and no candidate is feasible, the fallback is the
+candidate of least :math:`L(s_t, a_k)`, the one that violates least. The
+:class:`~torchrl_auv.modules.CandidateSelector` that holds a filter ranks the feasible
+candidates with its own critic (e.g. a task critic): the constraint decides what may be
+executed, the task decides what is.
+
+Examples:
+    >>> from tensordict import TensorDict
+    >>> from tensordict.nn import TensorDictModule
+    >>> critic = TensorDictModule(lambda o, a: o[..., :1] + a[..., :1],  # L = (o0 + a0)^2
+    ...                           ["observation", "action"], ["raw"])
+    >>> screen = LyapunovFilter(critic, spec=LyapunovSpec(form="squared", alpha=0.5),
+    ...                         raw_key="raw")
+    >>> td = TensorDict({"observation": torch.ones(1, 1), "cost": torch.ones(1, 1),
+    ...     "approach": torch.ones(1, 1, dtype=torch.bool),
+    ...     "service_start": torch.zeros(1, 1, dtype=torch.bool),
+    ...     ("history", "observation"): torch.full((1, 3, 1), 2.0),
+    ...     ("history", "action"): torch.zeros(1, 3, 1),
+    ...     ("history", "mask"): torch.ones(1, 3, dtype=torch.bool)}, [1])
+    >>> feasible, values, applies = screen(td, torch.tensor([[[0.0], [1.5], [-3.0]]]))
+    >>> values.tolist(), feasible.tolist(), applies.tolist()  # bound: (2 + 0)^2 - 0.5 = 3.5
+    ([[1.0, 6.25, 4.0]], [[True, False, False]], [True])
+"""
+
+from __future__ import annotations
+
+import torch
+from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
+from tensordict.nn import TensorDictModuleBase
+
+from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
+
+__all__ = ["LyapunovFilter"]
+
+
+class LyapunovFilter(torch.nn.Module):
+    """Which candidates keep the decrease condition (module docstring).
+
+    Args:
+        critic: the Lyapunov critic, reading ``observation_key`` and ``action_key`` and
+            writing ``raw_key`` (the form is ``spec``'s).
+        spec: the form, prior and :math:`\\alpha` (share the loss's with
+            :meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.share_spec`: an advisor's
+            new spec then reaches the filter).
+        raw_key: the critic's output key.
+        observation_key, action_key: the critic's inputs.
+        history_key: the :class:`~torchrl_auv.envs.StateActionHistory` entry (its
+            ``observation``, ``action`` and ``mask``; the last pair is the previous decision).
+        cost_key: the previous decision's cost the critic learns (an observation key of the
+            env: the last decision's).
+        on_leg_key, equilibrium_key: the previous decision's approach and service-start flags.
+
+    ``forward(tensordict, actions)`` with ``actions`` ``[*B, K, A]`` returns ``feasible``
+    ``[*B, K]`` (bool), ``values`` ``[*B, K]`` (:math:`L(s_t, a_k)`; the fallback is their
+    argmin) and ``applies`` ``[*B]`` (bool).
+    """
+
+    def __init__(
+        self,
+        critic: TensorDictModuleBase,
+        *,
+        spec: LyapunovSpec | None = None,
+        raw_key: NestedKey = "state_action_value",
+        observation_key: NestedKey = "observation",
+        action_key: NestedKey = "action",
+        history_key: NestedKey = "history",
+        cost_key: NestedKey = "cost",
+        on_leg_key: NestedKey = "approach",
+        equilibrium_key: NestedKey = "service_start",
+    ) -> None:
+        super().__init__()
+        self.critic = critic
+        self.spec_state = LyapunovSpecState(spec)
+        self.raw_key, self.observation_key = unravel_key(raw_key), unravel_key(observation_key)
+        self.action_key, self.cost_key = unravel_key(action_key), unravel_key(cost_key)
+        history = unravel_key(history_key)
+        self.history_key = (history,) if isinstance(history, str) else tuple(history)
+        self.on_leg_key = unravel_key(on_leg_key)
+        self.equilibrium_key = unravel_key(equilibrium_key)
+
+    @property
+    def spec(self) -> LyapunovSpec:
+        return self.spec_state.spec
+
+    def values(self, observation: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """:math:`L(o, a_k)` ``[*B, K]`` for ``observation`` ``[*B, d]`` and ``actions``
+        ``[*B, K, A]``."""
+        k = actions.shape[-2]
+        obs = observation.unsqueeze(-2).expand(*observation.shape[:-1], k, observation.shape[-1])
+        td = TensorDict(
+            {self.observation_key: obs, self.action_key: actions}, batch_size=actions.shape[:-1]
+        )
+        with torch.no_grad():
+            raw = self.critic(td)[self.raw_key]
+        spec = self.spec
+        return lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
+
+    def forward(
+        self, tensordict: TensorDictBase, actions: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        now = self.values(tensordict.get(self.observation_key), actions)
+        history = tensordict.get(self.history_key)
+        before = self.values(history["observation"][..., -1, :], history["action"][..., -1:, :])
+        bound = before[..., 0] - self.spec.alpha * tensordict.get(self.cost_key)[..., 0]
+        feasible = now <= bound.unsqueeze(-1)
+        on_leg = tensordict.get(self.on_leg_key)[..., 0]
+        arrived = tensordict.get(self.equilibrium_key)[..., 0]
+        applies = on_leg & ~arrived & history["mask"][..., -1]
+        return feasible | ~applies.unsqueeze(-1), now, applies
