@@ -330,6 +330,10 @@ def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasib
         expected = torch.where(cost.min(-1).values < medoid_cost, expected, anchor)
     expected = torch.where(none, l_now.argmin(-1), expected)
     assert torch.equal(out["selector", "index"], expected)
+    if anchored:  # a warm-up: the anchor acts, feasible or not, whatever the untrained L says
+        selector.rule.deviate.fill_(False)
+        warm = selector(td.clone())
+        assert torch.equal(warm["selector", "index"], warm["selector", "anchor"])
 
 
 @pytest.mark.parametrize("anchored", [False, True])
@@ -390,6 +394,14 @@ def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(ancho
     )[:, 0]
     q_now = _linear(loss.qvalue_network_params, td["observation"], td["action"])[:, 0]
     on = nxt["approach"][:, 0].float()
+    if anchored:  # during a warm-up the backup bootstraps on the anchor, as the selector acts
+        rule.deviate.fill_(False)
+        warm = loss(td.clone())
+        rule.deviate.fill_(True)
+        at_anchor = cost + 0.9 * absorbing * values[rows, anchor]
+        torch.testing.assert_close(
+            warm["loss_lyapunov"], (0.5 * (l_now - at_anchor).square() * on).sum() / on.sum()
+        )
     out = loss(td)
     torch.testing.assert_close(
         out["loss_lyapunov"], (0.5 * (l_now - l_target).square() * on).sum() / on.sum()
@@ -399,3 +411,29 @@ def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(ancho
         LyapunovActorCriticLoss(_actor(), _critic(), backup="candidates", filter_candidates=True)
     with pytest.raises(ValueError, match="filter_candidates=True"):
         LyapunovActorCriticLoss(_actor(), _critic(), qvalue_network=q, filter_candidates=True)
+
+
+@pytest.mark.parametrize("backup", ["actor", "candidates"])
+def test_a_critic_of_another_cost_learns_its_negative_as_the_reward(backup):
+    """reward_from="stability_cost": every output is the loss's on the same data whose reward
+    is -stability_cost (the caller's data untouched); a missing key is named."""
+    torch.manual_seed(2)
+    kwargs = {"backup": backup, "target_entropy": -1.0}
+    own = CandidateBackupSACLoss(_actor(), _critic(), reward_from="stability_cost", **kwargs)
+    plain = CandidateBackupSACLoss(_actor(), _critic(), **kwargs)
+    plain.load_state_dict(own.state_dict())
+    td = _batch()
+    td["next", "stability_cost"] = torch.rand(td.shape[0], 1) * 3
+    relabelled = td.clone()
+    relabelled["next", "reward"] = -td["next", "stability_cost"]
+    reward = td["next", "reward"].clone()
+    torch.manual_seed(5)
+    out = own(td)
+    torch.manual_seed(5)
+    expected = plain(relabelled)
+    for key in ("loss_qvalue", "loss_actor"):
+        torch.testing.assert_close(out[key], expected[key])
+    assert torch.equal(td["next", "reward"], reward)
+    td_without = _batch()
+    with pytest.raises(ValueError, match="reward_from 'stability_cost'"):
+        own(td_without)

@@ -39,6 +39,7 @@ from torchrl_auv.objectives import LyapunovSpec, LyapunovSpecState
         ({"network": {"critics": 0}}, "network.critics"),
         ({"network": {"layer_norm": "yes"}}, "network.layer_norm"),
         ({"optim": {"multiplier": "adam"}}, "optim.multiplier"),
+        ({"optim": {"critic_cost": "energy"}}, "optim.critic_cost"),
         ({"optim": {"constraint": "quantile"}}, "optim.constraint"),
         ({"optim": {"pid_gains": [1.0, -0.1, 0.0]}}, "optim.pid_gains"),
         ({"optim": {"pid_gains": [1.0, 0.1]}}, "optim.pid_gains"),
@@ -474,3 +475,14 @@ def test_a_loss_state_saved_before_the_spec_was_in_it_loads_and_keeps_the_spec_i
     loss.set_lyapunov_spec(LyapunovSpec(form="squared", alpha=0.05))
     loss.load_state_dict(newer)
     assert (loss.spec.form, loss.spec.alpha) == ("log", 0.3)
+
+
+def test_the_q_critics_learn_the_stability_cost_where_asked():
+    env = training.make_env("ideal", seed=0, num_envs=1, max_steps=3)
+    actor = training.make_actor(env, (8,))
+    critic = training.make_q_critic(env, (8,))
+    loss, _ = training.make_sac_loss(actor, critic, env, critic_cost="stability")
+    assert loss.reward_from == ("agents", "stability_cost")
+    assert training.make_sac_loss(actor, critic, env)[0].reward_from is None
+    with pytest.raises(ValueError, match="critic_cost must be one of"):
+        training.make_sac_loss(actor, critic, env, critic_cost="energy")

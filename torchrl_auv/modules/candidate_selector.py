@@ -64,7 +64,9 @@ class CandidateSelector(TensorDictModuleBase):
         constraint: a :class:`~torchrl_auv.modules.LyapunovFilter`: where it applies, only
             the candidates that keep the decrease condition may be executed (the others
             score :data:`INFEASIBLE_SCORE` before the rule), and where none does, the one of
-            least :math:`L`; writes ``("selector", "feasible")`` and ``("selector",
+            least :math:`L` (where the rule may leave its anchor,
+            :attr:`~torchrl_auv.modules.SelectionRule.may_leave_anchor`: during a warm-up the
+            anchored rule's anchor acts); writes ``("selector", "feasible")`` and ``("selector",
             "lyapunov")`` (each candidate's :math:`L(s, a_k)`) ``[*B, K]``.
 
     Examples:
@@ -242,8 +244,10 @@ class CandidateSelector(TensorDictModuleBase):
             anchor = medoid_index(candidates if chunked else candidates.unsqueeze(-2))
             index = self.rule.choose(scores, upper, anchor, members=members)
             tensordict.set((*self.selector_key, "anchor"), anchor)
-        if self.constraint is not None:  # none feasible: the least violation
-            index = torch.where(applies & ~feasible.any(-1), values.argmin(-1), index)
+        if self.constraint is not None:  # none feasible: the least violation (once the rule
+            # may deviate: during a warm-up the anchor acts whatever the untrained L says)
+            fallback = applies & ~feasible.any(-1) & self.rule.may_leave_anchor
+            index = torch.where(fallback, values.argmin(-1), index)
         # draws on the generator's device (a CPU generator for a selector on a GPU)
         draw_on = scores.device if self.generator is None else self.generator.device
         if self.exploration == "softmax":

@@ -98,6 +98,13 @@ class SelectionRule(torch.nn.Module):
     def anchored(self) -> bool:
         return self.anchor is not None
 
+    @property
+    def may_leave_anchor(self) -> torch.Tensor:
+        """Whether the rule may execute anything but its anchor now (a bool tensor): its
+        ``deviate`` switch for an anchored rule (off during a warm-up), always for the plain
+        argmax. A filter's fallback (:class:`~torchrl_auv.modules.LyapunovFilter`) follows it."""
+        return self.deviate if self.anchored else torch.ones_like(self.deviate)
+
     def choose(
         self,
         lower: torch.Tensor,

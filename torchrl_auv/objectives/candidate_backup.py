@@ -98,6 +98,9 @@ class CandidateBackupSACLoss(SACLoss):
         backup: one of :data:`BACKUPS`.
         rule: the :class:`~torchrl_auv.modules.SelectionRule` the selector acts with
             (kept by reference: its ``deviate`` switch reaches the target; default argmax).
+        reward_from: ``None`` (the ``reward`` key, SACLoss's) or a cost key under ``"next"``
+            whose negative is the reward the Q critics learn (e.g. a stability cost: the
+            critics then rank by it, the actor maximises it).
 
     Keys (``set_keys``, read under ``"next"``): SACLoss's, plus ``candidates`` (first actions
     ``[*B, K, A]``, default ``("proposer", "first_actions")``) and ``anchor`` (``[*B]``,
@@ -130,13 +133,30 @@ class CandidateBackupSACLoss(SACLoss):
     default_keys = _AcceptedKeys
 
     def __init__(
-        self, *args, backup: str = "actor", rule: SelectionRule | None = None, **kwargs
+        self,
+        *args,
+        backup: str = "actor",
+        rule: SelectionRule | None = None,
+        reward_from: NestedKey | None = None,
+        **kwargs,
     ) -> None:
         check_backup(backup)
         super().__init__(*args, **kwargs)
         self.backup = backup
+        self.reward_from = reward_from
         # by reference, not a submodule: the selector owns the rule and its deviate switch
         self.__dict__["rule"] = rule if rule is not None else SelectionRule()
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        if self.reward_from is not None:  # the critics learn -cost of that key
+            cost = tensordict.get(("next", self.reward_from), None)
+            if cost is None:
+                raise ValueError(
+                    f"reward_from {self.reward_from!r} is not in the data's 'next' entry"
+                )
+            tensordict = tensordict.clone(False)
+            tensordict.set(("next", self.tensor_keys.reward), -cost)
+        return super().forward(tensordict)
 
     def _compute_target_v2(self, tensordict: TensorDictBase) -> torch.Tensor:
         if self.backup == "actor":

@@ -537,7 +537,8 @@ class LyapunovActorCriticLoss(LossModule):
             q = self._qvalue(td, candidates, self.target_qvalue_network_params)[..., 0]
             scores = (-q).masked_fill(~feasible, INFEASIBLE_SCORE)
             index = self.rule.choose(scores, scores, anchor)
-            index = torch.where(feasible.any(-1), index, values.argmin(-1))
+            fallback = ~feasible.any(-1) & self.rule.may_leave_anchor  # as the selector's
+            index = torch.where(fallback, values.argmin(-1), index)
         pick = index[..., None, None].expand(*index.shape, 1, candidates.shape[-1])
         next_action = candidates.gather(-2, pick).squeeze(-2)
         return next_action, values.gather(-1, index.unsqueeze(-1))

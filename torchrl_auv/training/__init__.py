@@ -183,6 +183,7 @@ from torchrl_auv.training.run import (
     write_summary,
 )
 from torchrl_auv.training.sac import (
+    CRITIC_COSTS,
     SAC_LOGGED_KEYS,
     make_sac_loss,
     sac_from_config,
@@ -227,6 +228,7 @@ __all__ = [
     "CANDIDATES",
     "CANDIDATE_KEYS",
     "COLLECTOR_BACKENDS",
+    "CRITIC_COSTS",
     "DEMONSTRATION_SEED_OFFSET",
     "EPISODE_METRICS",
     "FIRST_STAGE_VERSION",

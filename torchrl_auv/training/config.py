@@ -89,6 +89,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "lyapunov.filter": (True, False),
         "optim.multiplier": MULTIPLIERS,
         "optim.constraint": CONSTRAINTS,
+        "optim.critic_cost": ("task", "stability"),
     }
 
 

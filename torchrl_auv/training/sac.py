@@ -20,6 +20,7 @@ from torchrl.modules import ProbabilisticActor
 from torchrl.objectives import SACLoss, SoftUpdate
 
 from torchrl_auv.envs import DataCollectionEnv
+from torchrl_auv.envs.keys import AGENT_STABILITY_COST
 from torchrl_auv.objectives import CandidateBackupSACLoss, ResidualSACLoss, SelectionRule
 from torchrl_auv.training.keys import ACTION, AGENTS, Q_VALUE
 from torchrl_auv.training.learner import Learner
@@ -31,7 +32,16 @@ from torchrl_auv.training.networks import (
 )
 from torchrl_auv.training.residual import backup_and_residual
 
-__all__ = ["SAC_LOGGED_KEYS", "make_sac_loss", "sac_from_config", "sac_optimisers"]
+__all__ = [
+    "CRITIC_COSTS",
+    "SAC_LOGGED_KEYS",
+    "make_sac_loss",
+    "sac_from_config",
+    "sac_optimisers",
+]
+
+#: ``optim.critic_cost`` choices: what the Q critics of SAC and Diffusion+RL learn
+CRITIC_COSTS = ("task", "stability")
 
 #: The ``SACLoss`` outputs a recipe logs (``train/<key>``).
 SAC_LOGGED_KEYS = ("loss_actor", "loss_qvalue", "alpha", "entropy", "residual")
@@ -50,6 +60,7 @@ def make_sac_loss(
     backup: str = "actor",
     rule: SelectionRule | None = None,
     residual_coef: float | None = None,
+    critic_cost: str = "task",
 ) -> tuple[SACLoss, SoftUpdate]:
     """TorchRL's ``SACLoss`` on the agents layout (reward ``== -cost``) and its target updater.
 
@@ -61,8 +72,13 @@ def make_sac_loss(
     (:class:`~torchrl_auv.objectives.CandidateBackupSACLoss`, a ``SACLoss``).
     ``residual_coef``: ``actor`` is a residual actor
     (:func:`~torchrl_auv.training.make_residual_actor`), pulled toward the prior with this
-    weight (:class:`~torchrl_auv.objectives.ResidualSACLoss`).
+    weight (:class:`~torchrl_auv.objectives.ResidualSACLoss`). ``critic_cost``
+    (:data:`CRITIC_COSTS`): ``"task"`` (the reward, ``-cost``) or ``"stability"``: the Q
+    critics learn ``-("agents", "stability_cost")`` (the Lyapunov critic's cost: issue
+    [22/26]'s ablation of the constraint).
     """
+    if critic_cost not in CRITIC_COSTS:
+        raise ValueError(f"critic_cost must be one of {CRITIC_COSTS}, got {critic_cost!r}")
     residual = {} if residual_coef is None else {"coef": residual_coef}
     loss = (ResidualSACLoss if residual else CandidateBackupSACLoss)(
         actor_network=actor,
@@ -74,6 +90,7 @@ def make_sac_loss(
         loss_function=loss_function,
         backup=backup,
         rule=rule,
+        reward_from=AGENT_STABILITY_COST if critic_cost == "stability" else None,
         **residual,
     )
     loss.set_keys(
@@ -130,6 +147,7 @@ def sac_from_config(
         loss_function=optim["loss_function"],
         num_qvalue_nets=int(network.get("critics", 2)),
         rule=rule,
+        critic_cost=optim.get("critic_cost", "task"),
         **backup_and_residual(cfg),
     )
     return Learner(

@@ -220,6 +220,7 @@ class SACOptimConfig:
     updates_per_batch: int = 250
     gamma: float = 0.99  # Table I: 0.97 (recipes/README.md)
     n_steps: int = 1  # > 1: n-step returns for the Q critics (torchrl_auv.training.NStepReturns)
+    critic_cost: str = "task"  # task (the reward) | stability (-stability_cost: [22]'s ablation)
     tau: float = 0.005
     loss_function: str = "smooth_l1"  # the Q loss: smooth_l1 (Huber) | l2
     compile: bool = False  # torch.compile of the update
