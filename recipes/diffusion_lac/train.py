@@ -64,8 +64,9 @@ def main(cfg: DictConfig) -> None:
         learner = training.lac_from_config(cfg, env, actor, critic, rule=rule)
         competing = actor if cfg.selection.include_actor else None  # the actor's own action
         #    lyapunov.filter: the task critic's choice among the candidates that keep the
-        #    decrease condition (else the least L); otherwise argmin L
-        screen = training.lyapunov_filter(learner.loss, critic) if cfg.lyapunov.filter else None
+        #    decrease condition (veto: the medoid where it does; else the least L); off: argmin L
+        mode = training.filter_mode(cfg)
+        screen = training.lyapunov_filter(learner.loss, critic, mode) if mode else None
         policy = training.make_selection_policy(
             proposer,
             critic if screen is None else learner.loss.qvalue_network,

@@ -283,12 +283,13 @@ def _filter_td(n=6, seed=3):
     )
 
 
-@pytest.mark.parametrize("anchored", [False, True])
-def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasible(anchored):
+@pytest.mark.parametrize(("anchored", "mode"), [(False, "rank"), (True, "rank"), (True, "veto")])
+def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasible(anchored, mode):
     """LyapunovFilter + mode "cost": where the previous decision is on a leg that goes on,
     the executed candidate is the least task cost among those with L(s, a_k) <= L(s_prev,
     a_prev) - alpha c_prev (the anchored rule among them: an infeasible medoid is left), the
-    least L where none is; off a leg (or without the previous pair) the plain choice."""
+    least L where none is; off a leg (or without the previous pair) the plain choice. "veto":
+    the medoid wherever it is feasible."""
     from torchrl_auv.modules import LyapunovFilter
 
     torch.manual_seed(0)
@@ -299,12 +300,12 @@ def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasib
         task,
         mode="cost",
         critic_out_key="task_q",
-        constraint=LyapunovFilter(lyap, spec=spec),
+        constraint=LyapunovFilter(lyap, spec=spec, mode=mode),
         rule=rule,
     )
-    td = _filter_td(n=12)
-    td["approach"][10] = False  # decision 10: off a leg; decision 11: a reset, no history
-    td["history", "mask"][11, -1] = False
+    td = _filter_td(n=32)
+    td["approach"][30] = False  # decision 30: off a leg; decision 31: a reset, no history
+    td["history", "mask"][31, -1] = False
     out = selector(td.clone())
 
     first = td["proposer", "candidates"][..., 0, :]
@@ -317,7 +318,7 @@ def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasib
         q = _linear(q_params, obs, first)[..., 0]
     torch.testing.assert_close(out["selector", "lyapunov"], l_now)
     feasible = l_now <= (before - 0.4 * td["cost"][:, 0])[:, None]
-    feasible[10:] = True
+    feasible[30:] = True
     assert torch.equal(out["selector", "feasible"], feasible)
     none = ~feasible.any(-1)
     some = feasible.any(-1) & ~feasible.all(-1)
@@ -328,6 +329,10 @@ def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasib
         anchor = out["selector", "anchor"]
         medoid_cost = cost.gather(-1, anchor[:, None])[:, 0]
         expected = torch.where(cost.min(-1).values < medoid_cost, expected, anchor)
+        if mode == "veto":
+            kept = feasible[torch.arange(32), anchor]
+            assert kept.any() and (~kept & ~none).any()
+            expected = torch.where(kept, anchor, cost.argmin(-1))
     expected = torch.where(none, l_now.argmin(-1), expected)
     assert torch.equal(out["selector", "index"], expected)
     if anchored:  # a warm-up: the anchor acts, feasible or not, whatever the untrained L says
@@ -336,8 +341,10 @@ def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasib
         assert torch.equal(warm["selector", "index"], warm["selector", "anchor"])
 
 
-@pytest.mark.parametrize("anchored", [False, True])
-def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(anchored):
+@pytest.mark.parametrize(
+    ("anchored", "filter_mode"), [(False, "rank"), (True, "rank"), (True, "veto")]
+)
+def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(anchored, filter_mode):
     """filter_candidates=True: at s' the target task critic's choice among the candidates
     with L'(s', a'_k) <= L'(s, a) - alpha c (on a leg that goes on), else the least L'; both
     TD targets bootstrap on it. Refused without a task critic or the candidate backup."""
@@ -352,7 +359,7 @@ def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(ancho
         spec=spec,
         backup="candidates",
         rule=rule,
-        filter_candidates=True,
+        filter_candidates=filter_mode,
     )
     loss.set_keys(qvalue="task_q", task_cost="cost")
     loss.make_value_estimator(gamma=0.9)
@@ -374,7 +381,11 @@ def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(ancho
     goes_on = nxt["approach"][:, 0] & ~nxt["service_start"][:, 0] & ~nxt["terminated"][:, 0]
     bound = torch.where(goes_on, own - 0.3 * cost, torch.inf)
     feasible = values <= bound[:, None]
-    scores = (-q_next).masked_fill(~feasible, -1e9)
+    allowed = feasible
+    if filter_mode == "veto":  # only the anchor where it is feasible
+        keep = feasible[rows, anchor]
+        allowed = torch.where(keep[:, None], torch.arange(K) == anchor[:, None], feasible)
+    scores = (-q_next).masked_fill(~allowed, -1e9)
     index = rule.choose(scores, scores, anchor)
     index = torch.where(feasible.any(-1), index, values.argmin(-1))
     none, some = ~feasible.any(-1), feasible.any(-1) & ~feasible.all(-1)
@@ -407,10 +418,14 @@ def test_with_the_filter_both_lac_critics_bootstrap_on_the_filtered_choice(ancho
         out["loss_lyapunov"], (0.5 * (l_now - l_target).square() * on).sum() / on.sum()
     )
     torch.testing.assert_close(out["loss_qvalue"], 0.5 * (q_now - q_target).square().mean())
-    with pytest.raises(ValueError, match="filter_candidates=True"):
-        LyapunovActorCriticLoss(_actor(), _critic(), backup="candidates", filter_candidates=True)
-    with pytest.raises(ValueError, match="filter_candidates=True"):
-        LyapunovActorCriticLoss(_actor(), _critic(), qvalue_network=q, filter_candidates=True)
+    with pytest.raises(ValueError, match="filter_candidates='rank'"):
+        LyapunovActorCriticLoss(_actor(), _critic(), backup="candidates", filter_candidates="rank")
+    with pytest.raises(ValueError, match="filter_candidates='rank'"):
+        LyapunovActorCriticLoss(_actor(), _critic(), qvalue_network=q, filter_candidates="rank")
+    with pytest.raises(ValueError, match="needs an anchored rule"):
+        LyapunovActorCriticLoss(
+            _actor(), _critic(), qvalue_network=q, backup="candidates", filter_candidates="veto"
+        )
 
 
 @pytest.mark.parametrize("backup", ["actor", "candidates"])
@@ -437,3 +452,12 @@ def test_a_critic_of_another_cost_learns_its_negative_as_the_reward(backup):
     td_without = _batch()
     with pytest.raises(ValueError, match="reward_from 'stability_cost'"):
         own(td_without)
+
+
+def test_a_veto_filter_needs_an_anchored_rule():
+    from torchrl_auv.modules import LyapunovFilter
+
+    with pytest.raises(ValueError, match="needs an anchored rule"):
+        CandidateSelector(_critic(), mode="cost", constraint=LyapunovFilter(_critic(), mode="veto"))
+    with pytest.raises(ValueError, match="mode must be one of"):
+        LyapunovFilter(_critic(), mode="strict")

@@ -66,7 +66,7 @@ def test_diffusion_recipes_run_with_tiny_overrides(tmp_path, recipe):
     legs = (
         [
             "lyapunov.legs=true",
-            "lyapunov.filter=true",
+            "lyapunov.filter=veto",
             "optim.multiplier=pid",
             "optim.lambda_max=100",
             "optim.constraint=hinge",

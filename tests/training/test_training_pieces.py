@@ -46,12 +46,14 @@ from torchrl_auv.objectives import LyapunovSpec, LyapunovSpecState
         ({"optim": {"multiplier": "dual", "lambda_init": 0.0}}, "optim.lambda_init"),
         ({"optim": {"lambda_init": 5.0, "lambda_max": 1.0}}, "optim.lambda_init"),
         ({"lyapunov": {"legs": True, "cost": "task"}}, "lyapunov.legs"),
-        ({"lyapunov": {"filter": True, "cost": "task"}}, "lyapunov.cost"),
+        ({"lyapunov": {"filter": "rank", "cost": "task"}}, "lyapunov.cost"),
         (
-            {"lyapunov": {"filter": True}, "selection": {"backup": "actor"}},
+            {"lyapunov": {"filter": "rank"}, "selection": {"backup": "actor"}},
             "selection.backup",
         ),
-        ({"lyapunov": {"filter": True}, "residual": {"bound": 0.2}}, "residual.bound"),
+        ({"lyapunov": {"filter": "rank"}, "residual": {"bound": 0.2}}, "residual.bound"),
+        ({"lyapunov": {"filter": "on"}}, "lyapunov.filter"),
+        ({"lyapunov": {"filter": "veto"}, "selection": {"anchor": None}}, "selection.anchor"),
     ],
 )
 def test_check_choices_names_the_key(cfg, named):

@@ -17,7 +17,7 @@ from torchrl_auv.modules.consensus import (
     pick_candidate,
 )
 from torchrl_auv.modules.diffusion_schedule import SAMPLERS, SCHEDULES, NoiseSchedule
-from torchrl_auv.modules.lyapunov_filter import LyapunovFilter
+from torchrl_auv.modules.lyapunov_filter import FILTER_MODES, LyapunovFilter, allowed_candidates
 from torchrl_auv.modules.lyapunov_forms import (
     FORMS,
     PRIORS,
@@ -39,6 +39,7 @@ __all__ = [
     "ANCHORS",
     "CANDIDATE_PICKS",
     "DOMINANCE",
+    "FILTER_MODES",
     "FORMS",
     "PRIORS",
     "Q_REDUCTIONS",
@@ -57,6 +58,7 @@ __all__ = [
     "SelectionRule",
     "SinusoidalEmbedding",
     "TemporalUNet1d",
+    "allowed_candidates",
     "lyapunov_value",
     "make_noise_model",
     "medoid_index",

@@ -20,7 +20,7 @@ from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
 from tensordict.nn import TensorDictModuleBase
 
 from torchrl_auv.modules.consensus import medoid_index
-from torchrl_auv.modules.lyapunov_filter import LyapunovFilter
+from torchrl_auv.modules.lyapunov_filter import LyapunovFilter, allowed_candidates
 from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
 from torchrl_auv.modules.selection_rule import SelectionRule
 
@@ -120,6 +120,11 @@ class CandidateSelector(TensorDictModuleBase):
         self.include_actor_action = include_actor_action
         self.generator = generator
         self.rule = rule if rule is not None else SelectionRule()
+        if constraint is not None and constraint.mode == "veto" and not self.rule.anchored:
+            raise ValueError(
+                "a LyapunovFilter in mode 'veto' keeps the rule's anchor where it is feasible: "
+                "it needs an anchored rule (SelectionRule(anchor='medoid'))"
+            )
         self.constraint = constraint
         self.candidates_key = unravel_key(candidates_key)
         self.observation_key = unravel_key(observation_key)
@@ -231,17 +236,20 @@ class CandidateSelector(TensorDictModuleBase):
                 raise ValueError(f"actor_action_key {self.actor_action_key!r} is missing")
             first = torch.cat([first, own.unsqueeze(-2)], -2)
         scores, upper, members = self.member_scores(observation, first)
+        anchor = None
+        if self.rule.anchored:
+            anchor = medoid_index(candidates if chunked else candidates.unsqueeze(-2))
         if self.constraint is not None:
             feasible, values, applies = self.constraint(tensordict, first)
+            allowed = allowed_candidates(feasible, anchor, self.constraint.mode)
             scores, upper, members = (
-                x.masked_fill(~feasible, INFEASIBLE_SCORE) for x in (scores, upper, members)
+                x.masked_fill(~allowed, INFEASIBLE_SCORE) for x in (scores, upper, members)
             )
             tensordict.set((*self.selector_key, "feasible"), feasible)
             tensordict.set((*self.selector_key, "lyapunov"), values)
         ranking = scores.argsort(-1, descending=True)
         index = ranking[..., 0]
         if self.rule.anchored:
-            anchor = medoid_index(candidates if chunked else candidates.unsqueeze(-2))
             index = self.rule.choose(scores, upper, anchor, members=members)
             tensordict.set((*self.selector_key, "anchor"), anchor)
         if self.constraint is not None:  # none feasible: the least violation (once the rule

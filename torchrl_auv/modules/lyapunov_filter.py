@@ -16,7 +16,13 @@ candidate is feasible. Where it applies and no candidate is feasible, the fallba
 candidate of least :math:`L(s_t, a_k)`, the one that violates least. The
 :class:`~torchrl_auv.modules.CandidateSelector` that holds a filter ranks the feasible
 candidates with its own critic (e.g. a task critic): the constraint decides what may be
-executed, the task decides what is.
+executed, the task decides what is. Two ways to rank (``mode``, :data:`FILTER_MODES`):
+
+- ``"rank"``: the selector's rule among the feasible candidates (an anchored rule keeps its
+  anchor unless a feasible candidate beats it, or the anchor is infeasible);
+- ``"veto"``: the anchor (the prior's choice) wherever it is feasible; where it is not, the
+  rule's choice among the feasible ones. The critic ranks only where the constraint vetoes the
+  prior, so a noisy task critic moves only the decisions the prior gets wrong.
 
 Examples:
     >>> from tensordict import TensorDict
@@ -44,7 +50,10 @@ from tensordict.nn import TensorDictModuleBase
 
 from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
 
-__all__ = ["LyapunovFilter"]
+__all__ = ["FILTER_MODES", "LyapunovFilter", "allowed_candidates"]
+
+#: how a filtered selection ranks the feasible candidates (module docstring)
+FILTER_MODES = ("rank", "veto")
 
 
 class LyapunovFilter(torch.nn.Module):
@@ -63,6 +72,7 @@ class LyapunovFilter(torch.nn.Module):
         cost_key: the previous decision's cost the critic learns (an observation key of the
             env: the last decision's).
         on_leg_key, equilibrium_key: the previous decision's approach and service-start flags.
+        mode: one of :data:`FILTER_MODES` (``"veto"`` needs an anchored selection rule).
 
     ``forward(tensordict, actions)`` with ``actions`` ``[*B, K, A]`` returns ``feasible``
     ``[*B, K]`` (bool), ``values`` ``[*B, K]`` (:math:`L(s_t, a_k)`; the fallback is their
@@ -81,8 +91,12 @@ class LyapunovFilter(torch.nn.Module):
         cost_key: NestedKey = "cost",
         on_leg_key: NestedKey = "approach",
         equilibrium_key: NestedKey = "service_start",
+        mode: str = "rank",
     ) -> None:
+        if mode not in FILTER_MODES:
+            raise ValueError(f"mode must be one of {FILTER_MODES}, got {mode!r}")
         super().__init__()
+        self.mode = mode
         self.critic = critic
         self.spec_state = LyapunovSpecState(spec)
         self.raw_key, self.observation_key = unravel_key(raw_key), unravel_key(observation_key)
@@ -95,6 +109,9 @@ class LyapunovFilter(torch.nn.Module):
     @property
     def spec(self) -> LyapunovSpec:
         return self.spec_state.spec
+
+    def extra_repr(self) -> str:
+        return f"mode={self.mode!r}"
 
     def values(self, observation: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """:math:`L(o, a_k)` ``[*B, K]`` for ``observation`` ``[*B, d]`` and ``actions``
@@ -121,3 +138,20 @@ class LyapunovFilter(torch.nn.Module):
         arrived = tensordict.get(self.equilibrium_key)[..., 0]
         applies = on_leg & ~arrived & history["mask"][..., -1]
         return feasible | ~applies.unsqueeze(-1), now, applies
+
+
+def allowed_candidates(feasible: torch.Tensor, anchor: torch.Tensor, mode: str) -> torch.Tensor:
+    """The candidates ``[*B, K]`` a filtered selection may execute: the ``feasible`` ones
+    (``"rank"``), or only the ``anchor`` ``[*B]`` where it is feasible and the feasible ones
+    where it is not (``"veto"``; module docstring).
+
+    Examples:
+        >>> feasible = torch.tensor([[True, True, False], [False, True, True]])
+        >>> allowed_candidates(feasible, torch.tensor([1, 0]), "veto").tolist()
+        [[False, True, False], [False, True, True]]
+    """
+    if mode == "rank":
+        return feasible
+    anchor = anchor.unsqueeze(-1)
+    only_anchor = torch.zeros_like(feasible).scatter(-1, anchor, True)
+    return torch.where(feasible.gather(-1, anchor), only_anchor, feasible)

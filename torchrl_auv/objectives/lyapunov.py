@@ -110,6 +110,7 @@ from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import ValueEstimators
 
 from torchrl_auv.modules.candidate_selector import INFEASIBLE_SCORE
+from torchrl_auv.modules.lyapunov_filter import FILTER_MODES, allowed_candidates
 from torchrl_auv.modules.lyapunov_forms import (
     FORMS,
     LyapunovSpec,
@@ -187,11 +188,12 @@ class LyapunovActorCriticLoss(LossModule):
             0 for ``"pid"`` and ``"fixed"``.
         pid_gains: ``(kp, ki, kd)`` >= 0 of the ``"pid"`` multiplier (per unit of
             :math:`\\Delta L`; default ``(1, 0.01, 0)``).
-        filter_candidates: the backup follows a selector with a
-            :class:`~torchrl_auv.modules.LyapunovFilter` that ranks by the task critic
-            (needs ``qvalue_network`` and ``backup="candidates"``): at :math:`s'` the task
-            critic's choice among the candidates that keep the decrease condition of the
-            transition, else the least :math:`L`.
+        filter_candidates: ``None``, or the ``mode`` of the selector's
+            :class:`~torchrl_auv.modules.LyapunovFilter` (:data:`~torchrl_auv.modules.FILTER_MODES`;
+            ranking by the task critic; needs ``qvalue_network`` and ``backup="candidates"``,
+            ``"veto"`` an anchored ``rule``): the backup follows that selector, at :math:`s'`
+            the task critic's choice among the candidates that keep the decrease condition of
+            the transition (``"veto"``: the anchor where it does), else the least :math:`L`.
 
     Keys (``set_keys``): ``action``, ``reward``, ``cost`` (the Lyapunov critic's cost; ``-reward``
     when the default ``"cost"`` is absent; a key set with ``set_keys`` must be in the data),
@@ -280,15 +282,23 @@ class LyapunovActorCriticLoss(LossModule):
         constraint: str = "mean",
         multiplier: str = "dual",
         pid_gains: tuple[float, float, float] = (1.0, 0.01, 0.0),
-        filter_candidates: bool = False,
+        filter_candidates: str | None = None,
     ) -> None:
         check_backup(backup)
+        if filter_candidates not in (None, *FILTER_MODES):
+            raise ValueError(
+                f"filter_candidates must be None or one of {FILTER_MODES}, "
+                f"got {filter_candidates!r}"
+            )
         if filter_candidates and (qvalue_network is None or backup != "candidates"):
             raise ValueError(
-                "filter_candidates=True bootstraps on the task critic's choice among the "
-                "candidates that keep the decrease condition: it needs a qvalue_network and "
-                f"backup='candidates', got qvalue_network={qvalue_network!r}, backup={backup!r}"
+                f"filter_candidates={filter_candidates!r} bootstraps on the task critic's choice "
+                "among the candidates that keep the decrease condition: it needs a "
+                f"qvalue_network and backup='candidates', got qvalue_network={qvalue_network!r}, "
+                f"backup={backup!r}"
             )
+        if filter_candidates == "veto" and not (rule is not None and rule.anchored):
+            raise ValueError("filter_candidates='veto' keeps the anchor: it needs an anchored rule")
         if constraint not in CONSTRAINTS:
             raise ValueError(f"constraint must be one of {CONSTRAINTS}, got {constraint!r}")
         if multiplier not in MULTIPLIERS:
@@ -332,7 +342,7 @@ class LyapunovActorCriticLoss(LossModule):
         self.mode, self.loss_function = mode, loss_function
         self.lambda_max = float(lambda_max)
         self.constraint, self.multiplier = constraint, multiplier
-        self.filter_candidates = bool(filter_candidates)
+        self.filter_candidates = filter_candidates
         self.pid_gains = tuple(float(gain) for gain in pid_gains)
         # the dual's parameter (multiplier "dual"); kept for the others so that optimisers
         # and state dicts have one shape
@@ -534,8 +544,9 @@ class LyapunovActorCriticLoss(LossModule):
             index = self.rule.choose(-values, -values, anchor)  # [..., K] -> [...]
         else:
             feasible = values <= bound
+            allowed = allowed_candidates(feasible, anchor, self.filter_candidates)
             q = self._qvalue(td, candidates, self.target_qvalue_network_params)[..., 0]
-            scores = (-q).masked_fill(~feasible, INFEASIBLE_SCORE)
+            scores = (-q).masked_fill(~allowed, INFEASIBLE_SCORE)
             index = self.rule.choose(scores, scores, anchor)
             fallback = ~feasible.any(-1) & self.rule.may_leave_anchor  # as the selector's
             index = torch.where(fallback, values.argmin(-1), index)

@@ -86,7 +86,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "network.layer_norm": (True, False),
         "lyapunov.cost": ("task", "stability"),
         "lyapunov.legs": (True, False),
-        "lyapunov.filter": (True, False),
+        "lyapunov.filter": ("off", "rank", "veto"),
         "optim.multiplier": MULTIPLIERS,
         "optim.constraint": CONSTRAINTS,
         "optim.critic_cost": ("task", "stability"),
@@ -193,7 +193,8 @@ def check_multiplier(cfg: Mapping) -> None:
             "lyapunov.legs=true ends the Lyapunov critic's TD target at service start, where "
             "only the stability cost is 0: it needs lyapunov.cost=stability, got task"
         )
-    if _get(cfg, "lyapunov.filter"):
+    mode = _get(cfg, "lyapunov.filter")
+    if mode not in (None, "off"):
         needs = {
             "lyapunov.cost": ("stability", "the task critic ranks the feasible candidates"),
             "selection.backup": ("candidates", "the critics bootstrap on the filtered choice"),
@@ -201,11 +202,16 @@ def check_multiplier(cfg: Mapping) -> None:
         for key, (value, why) in needs.items():
             if _get(cfg, key) not in (None, value):
                 raise ValueError(
-                    f"lyapunov.filter=true needs {key}={value} ({why}), got {_get(cfg, key)!r}"
+                    f"lyapunov.filter={mode} needs {key}={value} ({why}), got {_get(cfg, key)!r}"
                 )
+        if mode == "veto" and _get(cfg, "selection.anchor") is None and _get(cfg, "selection"):
+            raise ValueError(
+                "lyapunov.filter=veto keeps the medoid where it keeps the decrease condition: "
+                "it needs selection.anchor=medoid, got null"
+            )
         if _get(cfg, "residual.bound"):
             raise ValueError(
-                "lyapunov.filter=true filters the selection's candidates: it needs the "
+                f"lyapunov.filter={mode} filters the selection's candidates: it needs the "
                 f"selection (residual.bound=0), got residual.bound={_get(cfg, 'residual.bound')!r}"
             )
 

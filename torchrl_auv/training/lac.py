@@ -43,6 +43,7 @@ __all__ = [
     "AdvisorLoop",
     "advisor_from_config",
     "feedback_batch",
+    "filter_mode",
     "lac_from_config",
     "lac_optimisers",
     "leg_keys",
@@ -74,7 +75,14 @@ def leg_keys(cfg: Mapping) -> tuple:
     """:data:`LEG_KEYS` where the loss reads them (``cfg.lyapunov.legs`` or ``filter``), else
     nothing (:func:`~torchrl_auv.training.select_for_replay`'s ``extra_keys``)."""
     lyapunov = cfg.get("lyapunov", None) or {}
-    return LEG_KEYS if lyapunov.get("legs", False) or lyapunov.get("filter", False) else ()
+    return LEG_KEYS if lyapunov.get("legs", False) or filter_mode(cfg) else ()
+
+
+def filter_mode(cfg: Mapping) -> str | None:
+    """``cfg.lyapunov.filter`` as the loss's and the filter's mode: ``None`` for ``off`` (or
+    absent), else ``rank`` or ``veto`` (:data:`~torchrl_auv.modules.FILTER_MODES`)."""
+    mode = (cfg.get("lyapunov", None) or {}).get("filter", "off")
+    return None if mode in ("off", None) else mode
 
 
 #: ``lyapunov.cost`` choices: which cost the Lyapunov critic learns (the loss's docstring)
@@ -102,7 +110,7 @@ def make_lac_loss(
     lambda_init: float = 1.0,
     pid_gains: Sequence[float] = (1.0, 0.01, 0.0),
     constraint: str = "mean",
-    filter_candidates: bool = False,
+    filter_candidates: str | None = None,
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
     (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
@@ -174,13 +182,16 @@ def lyapunov_certificate(loss: LyapunovActorCriticLoss, critic: TensorDictModule
     )
 
 
-def lyapunov_filter(loss: LyapunovActorCriticLoss, critic: TensorDictModule) -> LyapunovFilter:
+def lyapunov_filter(
+    loss: LyapunovActorCriticLoss, critic: TensorDictModule, mode: str = "rank"
+) -> LyapunovFilter:
     """The :class:`~torchrl_auv.modules.LyapunovFilter` of a LAC run on the agents layout:
     ``critic`` (the Lyapunov critic), the history's last pair, the cost the critic learns and
-    the env's approach-leg flags; the loss's spec shared with it (an advisor's new spec reaches
-    it)."""
+    the env's approach-leg flags, ``mode`` (``rank`` or ``veto``); the loss's spec shared with
+    it (an advisor's new spec reaches it)."""
     screen = LyapunovFilter(
         critic,
+        mode=mode,
         raw_key=LYAPUNOV_RAW,
         observation_key=OBSERVATION,
         action_key=ACTION,
@@ -256,7 +267,7 @@ def lac_from_config(
         lambda_init=optim.get("lambda_init", 1.0),
         pid_gains=optim.get("pid_gains", (1.0, 0.01, 0.0)),
         constraint=optim.get("constraint", "mean"),
-        filter_candidates=bool(lyapunov.get("filter", False)),
+        filter_candidates=filter_mode(cfg),
         hidden=cfg["network"]["hidden"],
         layer_norm=critic_layer_norm(cfg),
         rule=rule,

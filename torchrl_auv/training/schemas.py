@@ -271,9 +271,9 @@ class LyapunovConfig:
     cost: str = "stability"  # stability (0 in service) | task (the paper's; never vanishes)
     legs: bool = False  # per approach leg: TD ends at service start (L = 0), the loss and the
     #   condition on approach transitions only (needs cost=stability; LyapunovActorCriticLoss)
-    filter: bool = False  # execute the task critic's choice among the candidates that keep the
-    #   decrease condition, else the least L (LyapunovFilter; needs cost=stability, the
-    #   candidate backup and the selection: residual.bound 0)
+    filter: str = "off"  # off | rank: the task critic's choice among the candidates that keep
+    #   the decrease condition, else the least L | veto: the medoid where it keeps it, else as
+    #   rank (LyapunovFilter; needs cost=stability, the candidate backup, the selection)
 
 
 @dataclass
