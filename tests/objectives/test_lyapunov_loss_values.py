@@ -489,9 +489,8 @@ def _chain(costs: torch.Tensor, gamma: float, tail: float) -> TensorDict:
     )
 
 
-@pytest.mark.parametrize("alpha", [0.1, 0.3])
-def test_the_decrease_condition_fails_for_a_stationary_cost_and_holds_for_a_vanishing_one(alpha):
-    gamma = 0.97
+def _cost_to_go_loss(alpha: float, gamma: float) -> LyapunovActorCriticLoss:
+    """The loss with :class:`_CostToGo` as its critic (the squared form: the true L)."""
     actor = ProbabilisticActor(
         TensorDictModule(nn.Linear(1, 1), in_keys=["observation"], out_keys=["loc"]),
         in_keys=["loc"],
@@ -500,6 +499,13 @@ def test_the_decrease_condition_fails_for_a_stationary_cost_and_holds_for_a_vani
     critic = ValueOperator(_CostToGo(), in_keys=["observation", "action"])
     loss = LyapunovActorCriticLoss(actor, critic, spec=LyapunovSpec(form="squared", alpha=alpha))
     loss.make_value_estimator(gamma=gamma)
+    return loss
+
+
+@pytest.mark.parametrize("alpha", [0.1, 0.3])
+def test_the_decrease_condition_fails_for_a_stationary_cost_and_holds_for_a_vanishing_one(alpha):
+    gamma = 0.97
+    loss = _cost_to_go_loss(alpha, gamma)
 
     def delta(data):
         out = loss(data)
@@ -528,14 +534,7 @@ def test_on_a_leg_that_ends_at_an_absorbing_equilibrium_the_true_cost_to_go_decr
     included, for gamma up to 1; a policy that stalls half-way for ever (the same cost
     again and again, gamma < 1) violates it."""
     alpha = 0.3
-    actor = ProbabilisticActor(
-        TensorDictModule(nn.Linear(1, 1), in_keys=["observation"], out_keys=["loc"]),
-        in_keys=["loc"],
-        distribution_class=_Dirac,
-    )
-    critic = ValueOperator(_CostToGo(), in_keys=["observation", "action"])
-    loss = LyapunovActorCriticLoss(actor, critic, spec=LyapunovSpec(form="squared", alpha=alpha))
-    loss.make_value_estimator(gamma=gamma)
+    loss = _cost_to_go_loss(alpha, gamma)
     costs = torch.arange(150.0, 0.0, -1.5) / 283.0  # 150 m from the node at 1.5 m a decision
     leg = _chain(costs, gamma, tail=0.0)
     n = costs.numel()

@@ -15,6 +15,7 @@ Examples:
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -84,26 +85,19 @@ def evaluate(
         for name, build in policies.items()
         if not isinstance(build, SameRowAs)
     ]
+    bar = contextlib.nullcontext()
     if progress:  # tqdm: a dependency of the recipes, not of the library
         import tqdm
 
-        with tqdm.tqdm(total=len(jobs) * steps, unit="decision", desc="evaluation") as bar:
-            rows = evaluate_rows(
-                make_env,
-                jobs,
-                seed=seed,
-                steps=steps,
-                workers=workers,
-                bar=bar,
-                transition_stats=transition_stats,
-            )
-    else:
+        bar = tqdm.tqdm(total=len(jobs) * steps, unit="decision", desc="evaluation")
+    with bar as shown:
         rows = evaluate_rows(
             make_env,
             jobs,
             seed=seed,
             steps=steps,
             workers=workers,
+            bar=shown,
             transition_stats=transition_stats,
         )
     found = {(row["sea_state"], row["policy"]): row for row in rows}
