@@ -304,7 +304,7 @@ def test_approach_legs_follow_the_service_flags_and_the_targets():
     assert start.any() and approach.any() and (~approach).any()
     assert torch.equal(start, ~before["in_service"] & after["in_service"])
     kept = after["target"] == before["target"]
-    expected = ~before["in_service"] & (before["target"] >= 0) & (kept | start)
+    expected = ~before["in_service"] & (before["target"] >= 0) & kept
     assert torch.equal(approach, expected)
     assert (start & ~approach).sum() == 0  # a leg ends on its own last transition
     assert not (approach & td["next", "overridden"]).any()  # the policy's own decisions

@@ -304,6 +304,7 @@ def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasib
         rule=rule,
     )
     td = _filter_td(n=32)
+    td["service_start"][29] = True  # decision 29 reached the node: the leg is over
     td["approach"][30] = False  # decision 30: off a leg; decision 31: a reset, no history
     td["history", "mask"][31, -1] = False
     out = selector(td.clone())
@@ -318,7 +319,7 @@ def test_the_filtered_selector_executes_the_task_critics_choice_among_the_feasib
         q = _linear(q_params, obs, first)[..., 0]
     torch.testing.assert_close(out["selector", "lyapunov"], l_now)
     feasible = l_now <= (before - 0.4 * td["cost"][:, 0])[:, None]
-    feasible[30:] = True
+    feasible[29:] = True
     assert torch.equal(out["selector", "feasible"], feasible)
     none = ~feasible.any(-1)
     some = feasible.any(-1) & ~feasible.all(-1)

@@ -11,7 +11,8 @@ every transition of a policy that arrives (``LyapunovActorCriticLoss``'s docstri
 A decision (the transition from its start to its end) is
 
 - an **approach** decision when the AUV was not in service at its start, had a target, and at
-  its end either still heads for the same target or starts service at it;
+  its end still has the same target (it heads for it, or starts service at it: the target
+  rule re-chooses only for AUVs out of service, so a service start keeps its target);
 - a **service start** when the AUV was not in service at its start and is at its end (it
   reached its target within the service radius): the leg's last transition.
 
@@ -20,12 +21,13 @@ overridden) and decisions in which the target rule switched the AUV to another n
 no leg: across a switch the function's goal changes, so no decrease is owed there.
 
 Examples:
-    >>> before = torch.tensor([False, False, True, False])
-    >>> after = torch.tensor([False, True, True, False])
-    >>> approach, start = approach_legs(before, torch.tensor([3, 3, 3, 3]), after,
-    ...                                 torch.tensor([3, 3, 3, 5]))
+    >>> # AUVs: heading for node 3; reaching it; in service; switched to node 5; no target
+    >>> before = torch.tensor([False, False, True, False, False])
+    >>> after = torch.tensor([False, True, True, False, False])
+    >>> approach, start = approach_legs(before, torch.tensor([3, 3, 3, 3, -1]), after,
+    ...                                 torch.tensor([3, 3, 3, 5, -1]))
     >>> approach.tolist(), start.tolist()
-    ([True, True, False, False], [False, True, False, False])
+    ([True, True, False, False, False], [False, True, False, False, False])
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ def approach_legs(
         target_before, target_after: ``[*B, N]`` int64 target node indices (``-1``: none).
     """
     service_start = ~in_service_before & in_service_after
+    # a service start keeps its target (the target rule re-chooses only out of service)
     kept = target_after == target_before
-    approach = ~in_service_before & (target_before >= 0) & (kept | service_start)
+    approach = ~in_service_before & (target_before >= 0) & kept
     return approach, service_start
