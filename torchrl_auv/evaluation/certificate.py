@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 
 import torch
-from tensordict import NestedKey, TensorDict, TensorDictBase
+from tensordict import NestedKey, TensorDictBase
 
 from torchrl_auv.envs.keys import (
     AGENT_ACTION,
@@ -43,7 +43,8 @@ from torchrl_auv.envs.keys import (
     AGENT_SERVICE_START,
     AGENT_STABILITY_COST,
 )
-from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, lyapunov_value
+from torchrl_auv.modules.lyapunov_filter import critic_values
+from torchrl_auv.modules.lyapunov_forms import LyapunovSpec
 
 __all__ = ["CERTIFICATE_KEYS", "LyapunovCertificate", "clopper_pearson_upper"]
 
@@ -145,19 +146,21 @@ class LyapunovCertificate:
 
     def values(self, rollout: TensorDictBase) -> torch.Tensor:
         """:math:`L(s_t, a_t)` ``[B, T, N]`` of the executed actions."""
-        observation = rollout[self.observation_key]
-        td = TensorDict(
-            {self.observation_key: observation, self.action_key: rollout[self.action_key]},
-            batch_size=observation.shape[:-1],
-        )
+        observation, action = rollout[self.observation_key], rollout[self.action_key]
         parameters = getattr(self.critic, "parameters", None)
         first = next(iter(parameters()), None) if parameters is not None else None
         if first is not None:  # a critic on a GPU reads the rollout (on the CPU) there
-            td = td.to(first.device)
-        with torch.no_grad():
-            raw = self.critic(td)[self.raw_key].cpu()
-        prior = observation if self.spec.prior else None
-        return lyapunov_value(raw, self.spec, prior)[..., 0]
+            observation, action = observation.to(first.device), action.to(first.device)
+        values = critic_values(
+            self.critic,
+            self.spec,
+            observation,
+            action.unsqueeze(-2),
+            observation_key=self.observation_key,
+            action_key=self.action_key,
+            raw_key=self.raw_key,
+        )
+        return values[..., 0].cpu()
 
     def deltas(
         self, rollout: TensorDictBase, mask: torch.Tensor

@@ -102,9 +102,15 @@ def _pickled_row(
     """In a worker: one row of a pickled policy and the seconds it took; with a shared
     counter (:func:`evaluate_rows`), every decision counted."""
     began, tick = time.perf_counter(), None if _TICKS is None else _tick
-    build, options = pickle.loads(policy_bytes), {"transition_stats": transition_stats}
     row = evaluate_row(
-        make_env, build, sea_state, name, seed=seed, steps=steps, tick=tick, **options
+        make_env,
+        pickle.loads(policy_bytes),
+        sea_state,
+        name,
+        seed=seed,
+        steps=steps,
+        tick=tick,
+        transition_stats=transition_stats,
     )
     if tick is not None:
         tick()  # the rollout's callback skips the last decision
@@ -130,9 +136,17 @@ def evaluate_rows(
             if bar is not None:
                 bar.set_postfix_str(f"{sea_state} {name}")
             tick = None if bar is None else lambda: bar.update()
-            options = {"tick": tick, "transition_stats": transition_stats}
             rows.append(
-                evaluate_row(make_env, build, sea_state, name, seed=seed, steps=steps, **options)
+                evaluate_row(
+                    make_env,
+                    build,
+                    sea_state,
+                    name,
+                    seed=seed,
+                    steps=steps,
+                    tick=tick,
+                    transition_stats=transition_stats,
+                )
             )
             if bar is not None:
                 bar.update(len(rows) * steps - bar.n)  # the callback skips the last decision

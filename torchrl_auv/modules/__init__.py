@@ -17,7 +17,13 @@ from torchrl_auv.modules.consensus import (
     pick_candidate,
 )
 from torchrl_auv.modules.diffusion_schedule import SAMPLERS, SCHEDULES, NoiseSchedule
-from torchrl_auv.modules.lyapunov_filter import FILTER_MODES, LyapunovFilter, allowed_candidates
+from torchrl_auv.modules.lyapunov_filter import (
+    FILTER_MODES,
+    LyapunovFilter,
+    allowed_candidates,
+    critic_values,
+    filtered_choice,
+)
 from torchrl_auv.modules.lyapunov_forms import (
     FORMS,
     PRIORS,
@@ -59,6 +65,8 @@ __all__ = [
     "SinusoidalEmbedding",
     "TemporalUNet1d",
     "allowed_candidates",
+    "critic_values",
+    "filtered_choice",
     "lyapunov_value",
     "make_noise_model",
     "medoid_index",

@@ -20,15 +20,13 @@ from tensordict import NestedKey, TensorDict, TensorDictBase, unravel_key
 from tensordict.nn import TensorDictModuleBase
 
 from torchrl_auv.modules.consensus import medoid_index
-from torchrl_auv.modules.lyapunov_filter import LyapunovFilter, allowed_candidates
+from torchrl_auv.modules.lyapunov_filter import INFEASIBLE_SCORE, LyapunovFilter, filtered_choice
 from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
 from torchrl_auv.modules.selection_rule import SelectionRule
 
-__all__ = ["SELECTION_MODES", "CandidateSelector"]
+__all__ = ["INFEASIBLE_SCORE", "SELECTION_MODES", "CandidateSelector"]
 
 SELECTION_MODES = ("q", "lyapunov", "cost")
-#: the score an infeasible candidate gets (finite: differences of two stay 0, not nan)
-INFEASIBLE_SCORE = -1.0e9
 
 
 class CandidateSelector(TensorDictModuleBase):
@@ -239,23 +237,28 @@ class CandidateSelector(TensorDictModuleBase):
         anchor = None
         if self.rule.anchored:
             anchor = medoid_index(candidates if chunked else candidates.unsqueeze(-2))
-        if self.constraint is not None:
-            feasible, values, applies = self.constraint(tensordict, first)
-            allowed = allowed_candidates(feasible, anchor, self.constraint.mode)
-            scores, upper, members = (
-                x.masked_fill(~allowed, INFEASIBLE_SCORE) for x in (scores, upper, members)
+        if self.constraint is not None:  # feasible already holds where the filter is off
+            feasible, values, _ = self.constraint(tensordict, first)
+            index, scores = filtered_choice(
+                self.rule,
+                scores,
+                anchor,
+                feasible,
+                values,
+                self.constraint.mode,
+                upper=upper,
+                members=members,
             )
             tensordict.set((*self.selector_key, "feasible"), feasible)
             tensordict.set((*self.selector_key, "lyapunov"), values)
-        ranking = scores.argsort(-1, descending=True)
-        index = ranking[..., 0]
+            ranking = scores.argsort(-1, descending=True)
+        else:
+            ranking = scores.argsort(-1, descending=True)
+            index = ranking[..., 0]
+            if self.rule.anchored:
+                index = self.rule.choose(scores, upper, anchor, members=members)
         if self.rule.anchored:
-            index = self.rule.choose(scores, upper, anchor, members=members)
             tensordict.set((*self.selector_key, "anchor"), anchor)
-        if self.constraint is not None:  # none feasible: the least violation (once the rule
-            # may deviate: during a warm-up the anchor acts whatever the untrained L says)
-            fallback = applies & ~feasible.any(-1) & self.rule.may_leave_anchor
-            index = torch.where(fallback, values.argmin(-1), index)
         # draws on the generator's device (a CPU generator for a selector on a GPU)
         draw_on = scores.device if self.generator is None else self.generator.device
         if self.exploration == "softmax":

@@ -50,10 +50,40 @@ from tensordict.nn import TensorDictModuleBase
 
 from torchrl_auv.modules.lyapunov_forms import LyapunovSpec, LyapunovSpecState, lyapunov_value
 
-__all__ = ["FILTER_MODES", "LyapunovFilter", "allowed_candidates"]
+__all__ = [
+    "FILTER_MODES",
+    "INFEASIBLE_SCORE",
+    "LyapunovFilter",
+    "allowed_candidates",
+    "critic_values",
+    "filtered_choice",
+]
 
 #: how a filtered selection ranks the feasible candidates (module docstring)
 FILTER_MODES = ("rank", "veto")
+#: the score a candidate the filter excludes gets (finite: differences of two stay 0, not nan)
+INFEASIBLE_SCORE = -1.0e9
+
+
+def critic_values(
+    critic,
+    spec: LyapunovSpec,
+    observation: torch.Tensor,
+    actions: torch.Tensor,
+    *,
+    observation_key: NestedKey,
+    action_key: NestedKey,
+    raw_key: NestedKey,
+) -> torch.Tensor:
+    """:math:`L(o, a_k)` ``[*B, K]`` of a Lyapunov ``critic`` (raw output at ``raw_key``, the
+    form and prior ``spec``'s) for ``observation`` ``[*B, d]`` and ``actions`` ``[*B, K, A]``,
+    without gradient."""
+    k = actions.shape[-2]
+    obs = observation.unsqueeze(-2).expand(*observation.shape[:-1], k, observation.shape[-1])
+    td = TensorDict({observation_key: obs, action_key: actions}, batch_size=actions.shape[:-1])
+    with torch.no_grad():
+        raw = critic(td)[raw_key]
+    return lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
 
 
 class LyapunovFilter(torch.nn.Module):
@@ -115,16 +145,16 @@ class LyapunovFilter(torch.nn.Module):
 
     def values(self, observation: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """:math:`L(o, a_k)` ``[*B, K]`` for ``observation`` ``[*B, d]`` and ``actions``
-        ``[*B, K, A]``."""
-        k = actions.shape[-2]
-        obs = observation.unsqueeze(-2).expand(*observation.shape[:-1], k, observation.shape[-1])
-        td = TensorDict(
-            {self.observation_key: obs, self.action_key: actions}, batch_size=actions.shape[:-1]
+        ``[*B, K, A]`` (:func:`critic_values` with this filter's critic, spec and keys)."""
+        return critic_values(
+            self.critic,
+            self.spec,
+            observation,
+            actions,
+            observation_key=self.observation_key,
+            action_key=self.action_key,
+            raw_key=self.raw_key,
         )
-        with torch.no_grad():
-            raw = self.critic(td)[self.raw_key]
-        spec = self.spec
-        return lyapunov_value(raw, spec, obs if spec.prior else None)[..., 0]
 
     def forward(
         self, tensordict: TensorDictBase, actions: torch.Tensor
@@ -155,3 +185,41 @@ def allowed_candidates(feasible: torch.Tensor, anchor: torch.Tensor, mode: str) 
     anchor = anchor.unsqueeze(-1)
     only_anchor = torch.zeros_like(feasible).scatter(-1, anchor, True)
     return torch.where(feasible.gather(-1, anchor), only_anchor, feasible)
+
+
+def filtered_choice(
+    rule,
+    scores: torch.Tensor,
+    anchor: torch.Tensor | None,
+    feasible: torch.Tensor,
+    values: torch.Tensor,
+    mode: str,
+    *,
+    upper: torch.Tensor | None = None,
+    members: torch.Tensor | None = None,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The index ``[*B]`` a filtered selection executes, and its ``scores`` ``[*B, K]`` with
+    the excluded candidates at :data:`INFEASIBLE_SCORE`: ``rule``'s choice (a
+    :class:`~torchrl_auv.modules.SelectionRule`, with ``upper`` and ``members`` masked
+    alike) among :func:`allowed_candidates`, and the least ``values`` (:math:`L`) where no
+    candidate is ``feasible`` and the rule may leave its anchor. The one rule of the selector
+    (:class:`~torchrl_auv.modules.CandidateSelector`) and of the critics' backup
+    (``LyapunovActorCriticLoss(filter_candidates=...)``).
+
+    Examples:
+        >>> from torchrl_auv.modules import SelectionRule
+        >>> scores = torch.tensor([[3.0, 2.0, 1.0], [3.0, 2.0, 1.0]])
+        >>> feasible = torch.tensor([[False, True, True], [False, False, False]])
+        >>> values = torch.tensor([[5.0, 4.0, 6.0], [5.0, 4.0, 6.0]])
+        >>> index, masked = filtered_choice(SelectionRule(), scores, None, feasible, values, "rank")
+        >>> index.tolist(), masked[0].tolist()
+        ([1, 1], [-1000000000.0, 2.0, 1.0])
+    """
+    allowed = allowed_candidates(feasible, anchor, mode)
+    masked = [
+        None if x is None else x.masked_fill(~allowed, INFEASIBLE_SCORE)
+        for x in (scores, upper, members)
+    ]
+    index = rule.choose(masked[0], masked[1], anchor, members=masked[2])
+    fallback = ~feasible.any(-1) & rule.may_leave_anchor
+    return torch.where(fallback, values.argmin(-1), index), masked[0]

@@ -109,8 +109,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.objectives.common import LossModule
 from torchrl.objectives.utils import ValueEstimators
 
-from torchrl_auv.modules.candidate_selector import INFEASIBLE_SCORE
-from torchrl_auv.modules.lyapunov_filter import FILTER_MODES, allowed_candidates
+from torchrl_auv.modules.lyapunov_filter import FILTER_MODES, filtered_choice
 from torchrl_auv.modules.lyapunov_forms import (
     FORMS,
     LyapunovSpec,
@@ -543,13 +542,10 @@ class LyapunovActorCriticLoss(LossModule):
         if bound is None:
             index = self.rule.choose(-values, -values, anchor)  # [..., K] -> [...]
         else:
-            feasible = values <= bound
-            allowed = allowed_candidates(feasible, anchor, self.filter_candidates)
             q = self._qvalue(td, candidates, self.target_qvalue_network_params)[..., 0]
-            scores = (-q).masked_fill(~allowed, INFEASIBLE_SCORE)
-            index = self.rule.choose(scores, scores, anchor)
-            fallback = ~feasible.any(-1) & self.rule.may_leave_anchor  # as the selector's
-            index = torch.where(fallback, values.argmin(-1), index)
+            index, _ = filtered_choice(  # the selector's rule (least task cost among the
+                self.rule, -q, anchor, values <= bound, values, self.filter_candidates
+            )  # candidates that keep the condition, else the least L)
         pick = index[..., None, None].expand(*index.shape, 1, candidates.shape[-1])
         next_action = candidates.gather(-2, pick).squeeze(-2)
         return next_action, values.gather(-1, index.unsqueeze(-1))
@@ -666,12 +662,14 @@ class LyapunovActorCriticLoss(LossModule):
             after = leg_continues * after
         delta = after - value.detach() + self.spec_state.last_set.alpha * cost
         legs = on_leg.sum().clamp_min(1.0)
-        mean_delta = (delta * on_leg).sum() / legs
+
+        def over_legs(x: torch.Tensor) -> torch.Tensor:  # the mean over approach transitions
+            return (x * on_leg).sum() / legs
+
+        mean_delta = over_legs(delta)
         if self.multiplier == "pid" and self.training:
             self._pid_step(mean_delta.detach())
-        owed = (
-            mean_delta if self.constraint == "mean" else (delta.clamp_min(0) * on_leg).sum() / legs
-        )
+        owed = mean_delta if self.constraint == "mean" else over_legs(delta.clamp_min(0))
         loss_actor = self.lambda_.detach() * owed + self.beta.detach() * log_prob.mean()
         task = {}
         if self.qvalue_network is not None:  # the task: a Q critic on task_cost
@@ -700,8 +698,8 @@ class LyapunovActorCriticLoss(LossModule):
                 "lambda": self.lambda_.detach(),
                 "beta": self.beta.detach(),
                 "delta_l": mean_delta.detach(),
-                "violation_rate": ((delta.detach() > 0) * on_leg).sum() / legs,
-                "lyapunov_value": (value.detach() * on_leg).sum() / legs,
+                "violation_rate": over_legs((delta.detach() > 0).to(delta.dtype)),
+                "lyapunov_value": over_legs(value.detach()),
                 "leg_fraction": on_leg.mean(),
                 "negative_cost_fraction": (cost < 0).float().mean(),
                 **task,

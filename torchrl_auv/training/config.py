@@ -136,7 +136,7 @@ def check_choices(cfg: Mapping) -> None:
         or not (weight > 0 and math.isfinite(weight))
     ):
         raise ValueError(f"lyapunov.stability_weight must be a finite number > 0, got {weight!r}")
-    check_multiplier(cfg)
+    check_lac_values(cfg)
     finetune = _get(cfg, "finetune")
     if isinstance(finetune, Mapping):
         check_finetune(finetune)
@@ -167,10 +167,11 @@ def check_choices(cfg: Mapping) -> None:
             raise ValueError("device is 'cuda' but torch sees no CUDA device; use device=cpu")
 
 
-def check_multiplier(cfg: Mapping) -> None:
-    """The LAC multiplier's values (``optim.lambda_init``, ``optim.lambda_max``,
-    ``optim.pid_gains``) and ``lyapunov.legs`` (the stability cost's): a ``ValueError``
-    naming the key."""
+def check_lac_values(cfg: Mapping) -> None:
+    """The values of the LAC learner that depend on each other: the multiplier's
+    (``optim.lambda_init``, ``optim.lambda_max``, ``optim.pid_gains``), ``lyapunov.legs``
+    (the stability cost's) and ``lyapunov.filter`` (the stability cost, the candidate backup,
+    the anchor for ``veto``, the selection): a ``ValueError`` naming the key."""
     init, cap = _get(cfg, "optim.lambda_init"), _get(cfg, "optim.lambda_max")
     multiplier = _get(cfg, "optim.multiplier")
     for key, value in (("optim.lambda_init", init), ("optim.lambda_max", cap)):
