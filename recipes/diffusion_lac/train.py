@@ -40,10 +40,7 @@ def main(cfg: DictConfig) -> None:
     # 2. env, actor, Lyapunov critic, LAC learner, the proposer-selector policy (ranking with
     #    the live critic through the spec the loss owns), the advisor loop
     env = training.env_from_config(cfg)  # with the proposer's history (env.history)
-    critic = training.make_lyapunov_critic(
-        env, cfg.network.hidden, layer_norm=training.critic_layer_norm(cfg)
-    )
-    critic = critic.to(cfg.device)
+    critic = training.lyapunov_critic_from_config(cfg, env)  # lyapunov.inputs: what it reads
     bound = training.residual_bound(cfg)
     if bound:  # the actor acts: L bootstraps on it and constrains it; no selection
         actor = training.make_residual_actor(env, cfg.network.hidden, bound=bound)

@@ -53,7 +53,7 @@ learns that leg's cost-to-go: its TD target ends at service start,
 
 .. math::
 
-    L(s, a) \leftarrow c + \gamma\,(1 - d)\,(1 - e)\, L_{target}(s', a'),
+    L(s, a) \leftarrow c + \gamma_L\,(1 - d)\,(1 - e)\, L_{target}(s', a'),
 
 with :math:`e = 1` where the transition starts service (the equilibrium: :math:`L = 0`
 there), and the critic's loss and the decrease condition are means over the approach
@@ -68,7 +68,12 @@ condition (:math:`c > 0` outside service); with :math:`\gamma < 1` every transit
 :math:`d < 2 (1 - \alpha) v \Delta t / (1 - \gamma)` (270 m at 1.5 m a decision,
 :math:`\alpha = 0.1`, :math:`\gamma = 0.99`: all of the area's 283 m diagonal but its last
 13 m). A policy that stalls, circles or regresses (the regress term) violates it: that is
-what the condition is for.
+what the condition is for. The bound scales with the approach speed: an AUV held back by a
+current to :math:`v \Delta t = 0.2` m a decision keeps it for :math:`d < 36` m only. The
+Lyapunov critic's discount :math:`\gamma_L` (``make_value_estimator(lyapunov_gamma=...)``;
+default the task's :math:`\gamma`) need not be the task's: a leg ends at service start, so
+:math:`\gamma_L` near 1 is well posed, and at :math:`\gamma_L = 0.999` the bound is ten times
+wider (360 m at 0.2 m a decision).
 
 **The constraint and the multiplier.** ``constraint="mean"`` charges the actor
 :math:`\lambda\,\mathbb E[\Delta L]` (as published: one transition's violation can be paid
@@ -354,6 +359,7 @@ class LyapunovActorCriticLoss(LossModule):
         self._target_entropy = target_entropy
         self._action_spec = action_spec
         self.gamma = 0.99
+        self._lyapunov_gamma: float | None = None  # None: the task's gamma
         self.backup = backup
         # by reference, not a submodule: the selector owns the rule and its deviate switch
         self.__dict__["rule"] = rule if rule is not None else SelectionRule()
@@ -401,19 +407,40 @@ class LyapunovActorCriticLoss(LossModule):
         return reader
 
     def make_value_estimator(self, value_type: ValueEstimators = None, **hyperparams):
-        """Set the discount: ``make_value_estimator(ValueEstimators.TD0, gamma=0.995)``.
+        """Set the discounts: ``make_value_estimator(ValueEstimators.TD0, gamma=0.995)``.
 
-        The Lyapunov target is a one-step (TD(0)) target; other estimators are refused.
+        ``gamma``: the task critic's discount, and the Lyapunov critic's unless
+        ``lyapunov_gamma`` is given (:attr:`lyapunov_gamma`; ``None`` goes back to ``gamma``).
+        The targets are one-step (TD(0)) targets; other estimators are refused.
+
+        Examples:
+            >>> from torchrl_auv.training import make_actor, make_env, make_lyapunov_critic
+            >>> env = make_env("ideal", seed=0, num_envs=1)
+            >>> actor, critic = make_actor(env, (8,)), make_lyapunov_critic(env, (8,))
+            >>> loss = LyapunovActorCriticLoss(actor, critic)
+            >>> loss = loss.make_value_estimator(gamma=0.99, lyapunov_gamma=0.999)
+            >>> loss.gamma, loss.lyapunov_gamma
+            (0.99, 0.999)
         """
         if value_type not in (None, ValueEstimators.TD0):
             raise ValueError(f"value_type must be ValueEstimators.TD0, got {value_type}")
         gamma = hyperparams.pop("gamma", self.gamma)
+        lyapunov_gamma = hyperparams.pop("lyapunov_gamma", self._lyapunov_gamma)
         if hyperparams:
             raise ValueError(f"unknown value estimator arguments {sorted(hyperparams)}")
-        if not 0 < gamma <= 1:
-            raise ValueError(f"gamma must be in (0, 1], got {gamma}")
+        for name, value in (("gamma", gamma), ("lyapunov_gamma", lyapunov_gamma)):
+            if value is not None and not 0 < value <= 1:
+                raise ValueError(f"{name} must be in (0, 1], got {value}")
         self.gamma = float(gamma)
+        self._lyapunov_gamma = None if lyapunov_gamma is None else float(lyapunov_gamma)
         return self
+
+    @property
+    def lyapunov_gamma(self) -> float:
+        r"""The Lyapunov critic's discount (:meth:`make_value_estimator`; default ``gamma``).
+        A leg's cost-to-go keeps the decrease condition where :math:`(1 - \gamma_L) L(s')
+        < (1 - \alpha) c` (module docstring): a discount nearer 1 widens that region."""
+        return self.gamma if self._lyapunov_gamma is None else self._lyapunov_gamma
 
     def _forward_value_estimator_keys(self, **kwargs) -> None:
         pass
@@ -646,7 +673,7 @@ class LyapunovActorCriticLoss(LossModule):
                 next_value = self._lyapunov(
                     next_td, next_action, self.target_lyapunov_network_params
                 )
-            target = cost + self.gamma * leg_continues * next_value
+            target = cost + self.lyapunov_gamma * leg_continues * next_value
         value = self._lyapunov(td, action, critic_params)
         loss_lyapunov = self._td_loss(value, target, on_leg)
 

@@ -113,6 +113,7 @@ from torchrl_auv.training.lac import (
     lac_optimisers,
     leg_keys,
     lyapunov_certificate,
+    lyapunov_critic_from_config,
     lyapunov_filter,
     make_lac_loss,
 )
@@ -124,6 +125,7 @@ from torchrl_auv.training.n_step import (
     n_step_from_config,
 )
 from torchrl_auv.training.networks import (
+    LYAPUNOV_INPUTS,
     ObsActionMLP,
     critic_layer_norm,
     make_actor,
@@ -236,6 +238,7 @@ __all__ = [
     "LAC_LOGGED_KEYS",
     "LEG_KEYS",
     "LYAPUNOV_COSTS",
+    "LYAPUNOV_INPUTS",
     "LYAPUNOV_RAW",
     "NEXT_ANCHOR",
     "NEXT_CANDIDATES",
@@ -333,6 +336,7 @@ __all__ = [
     "log_metrics",
     "logger_from_config",
     "lyapunov_certificate",
+    "lyapunov_critic_from_config",
     "lyapunov_filter",
     "make_actor",
     "make_checkpoint",

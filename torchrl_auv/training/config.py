@@ -23,6 +23,7 @@ from torchrl_auv.physics.acoustics import RATE_MODELS
 from torchrl_auv.physics.ocean import SEA_STATES
 from torchrl_auv.training.candidates import check_selection
 from torchrl_auv.training.collectors import COLLECTOR_BACKENDS, check_ray_backend
+from torchrl_auv.training.networks import LYAPUNOV_INPUTS
 from torchrl_auv.training.proposer_finetuning import check_finetune
 from torchrl_auv.training.residual import check_residual
 
@@ -87,6 +88,7 @@ def _choices() -> dict[str, tuple[str, ...]]:
         "lyapunov.cost": ("task", "stability"),
         "lyapunov.legs": (True, False),
         "lyapunov.filter": ("off", "rank", "veto"),
+        "lyapunov.inputs": LYAPUNOV_INPUTS,
         "optim.multiplier": MULTIPLIERS,
         "optim.constraint": CONSTRAINTS,
         "optim.critic_cost": ("task", "stability"),
@@ -189,6 +191,13 @@ def check_lac_values(cfg: Mapping) -> None:
         or any(isinstance(g, bool) or not isinstance(g, int | float) or not g >= 0 for g in gains)
     ):
         raise ValueError(f"optim.pid_gains must be three numbers >= 0 (kp, ki, kd), got {gains!r}")
+    lyapunov_gamma = _get(cfg, "lyapunov.gamma")
+    if lyapunov_gamma is not None and (
+        isinstance(lyapunov_gamma, bool)
+        or not isinstance(lyapunov_gamma, int | float)
+        or not 0 < lyapunov_gamma <= 1
+    ):
+        raise ValueError(f"lyapunov.gamma must be null or in (0, 1], got {lyapunov_gamma!r}")
     if _get(cfg, "lyapunov.legs") and _get(cfg, "lyapunov.cost") == "task":
         raise ValueError(
             "lyapunov.legs=true ends the Lyapunov critic's TD target at service start, where "

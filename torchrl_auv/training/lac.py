@@ -31,6 +31,7 @@ from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION,
 from torchrl_auv.training.learner import Learner
 from torchrl_auv.training.networks import (
     critic_layer_norm,
+    make_lyapunov_critic,
     make_q_critic,
     observation_action_dims,
 )
@@ -48,6 +49,7 @@ __all__ = [
     "lac_optimisers",
     "leg_keys",
     "lyapunov_certificate",
+    "lyapunov_critic_from_config",
     "lyapunov_filter",
     "make_lac_loss",
 ]
@@ -111,6 +113,7 @@ def make_lac_loss(
     pid_gains: Sequence[float] = (1.0, 0.01, 0.0),
     constraint: str = "mean",
     filter_candidates: str | None = None,
+    lyapunov_gamma: float | None = None,
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
     (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
@@ -129,7 +132,8 @@ def make_lac_loss(
     per approach leg, absorbing at service start (the env's ``("agents", "approach" |
     "service_start")``; the loss's docstring). ``multiplier``, ``lambda_init``,
     ``pid_gains``, ``constraint``, ``filter_candidates``: the loss's arguments of those
-    names."""
+    names; ``lyapunov_gamma``: the Lyapunov critic's discount (``None``: ``gamma``;
+    :meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.make_value_estimator`)."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
     qvalue = make_q_critic(env, hidden, layer_norm) if cost == "stability" else None
@@ -168,7 +172,7 @@ def make_lac_loss(
     )
     if legs:  # else the loss's defaults, which no env key has: one leg, nothing absorbing
         loss.set_keys(approach=AGENT_APPROACH, equilibrium=AGENT_SERVICE_START)
-    loss.make_value_estimator(gamma=gamma)
+    loss.make_value_estimator(gamma=gamma, lyapunov_gamma=lyapunov_gamma)
     return loss.to(next(actor.parameters()).device)
 
 
@@ -234,6 +238,18 @@ def feedback_batch(data: TensorDictBase) -> TensorDict:
     )
 
 
+def lyapunov_critic_from_config(cfg: Mapping, env) -> TensorDictModule:
+    """The Lyapunov critic of a recipe config: :func:`make_lyapunov_critic` with
+    ``cfg.network.hidden``, ``network.layer_norm`` and ``lyapunov.inputs`` (absent:
+    ``all``), on ``cfg.device``."""
+    return make_lyapunov_critic(
+        env,
+        cfg["network"]["hidden"],
+        layer_norm=critic_layer_norm(cfg),
+        inputs=(cfg.get("lyapunov", None) or {}).get("inputs", "all"),
+    ).to(cfg["device"])
+
+
 def lac_from_config(
     cfg: Mapping,
     env,
@@ -268,6 +284,7 @@ def lac_from_config(
         pid_gains=optim.get("pid_gains", (1.0, 0.01, 0.0)),
         constraint=optim.get("constraint", "mean"),
         filter_candidates=filter_mode(cfg),
+        lyapunov_gamma=lyapunov.get("gamma", None),
         hidden=cfg["network"]["hidden"],
         layer_norm=critic_layer_norm(cfg),
         rule=rule,

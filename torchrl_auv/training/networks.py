@@ -21,9 +21,11 @@ from torch import nn
 from torchrl.modules import MLP, ProbabilisticActor, TanhNormal
 
 from torchrl_auv.envs import DataCollectionEnv
+from torchrl_auv.iout import OBSERVATION_FEATURES
 from torchrl_auv.training.keys import ACTION, AGENTS, LYAPUNOV_RAW, OBSERVATION, Q_VALUE
 
 __all__ = [
+    "LYAPUNOV_INPUTS",
     "ObsActionMLP",
     "critic_layer_norm",
     "make_actor",
@@ -31,6 +33,10 @@ __all__ = [
     "make_q_critic",
     "observation_action_dims",
 ]
+
+
+#: what a Lyapunov critic reads of the observation (:func:`make_lyapunov_critic`)
+LYAPUNOV_INPUTS = ("all", "task")
 
 
 def observation_action_dims(env: DataCollectionEnv) -> tuple[int, int]:
@@ -74,10 +80,23 @@ class ObsActionMLP(nn.Module):
 
     ``layer_norm=True`` puts a ``LayerNorm`` after each hidden layer's linear map, before its
     ReLU (the critics of RLPD, Ball et al. 2023: it bounds the Q extrapolation off the data).
+    ``observation_features``: read only the observation's first that many features (all when
+    ``None``); ``in_features`` counts the features read.
     """
 
-    def __init__(self, in_features: int, hidden: Sequence[int], layer_norm: bool = False) -> None:
+    def __init__(
+        self,
+        in_features: int,
+        hidden: Sequence[int],
+        layer_norm: bool = False,
+        observation_features: int | None = None,
+    ) -> None:
         super().__init__()
+        if observation_features is not None and observation_features < 1:
+            raise ValueError(
+                f"observation_features must be None or >= 1, got {observation_features!r}"
+            )
+        self.observation_features = observation_features
         norm = {}
         if layer_norm:
             norm = {
@@ -93,6 +112,8 @@ class ObsActionMLP(nn.Module):
         )
 
     def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        if self.observation_features is not None:
+            obs = obs[..., : self.observation_features]
         return self.net(torch.cat([obs, action], -1))
 
 
@@ -120,14 +141,40 @@ def make_q_critic(
 
 
 def make_lyapunov_critic(
-    env, hidden: Sequence[int] = (256, 256), layer_norm: bool = False
+    env,
+    hidden: Sequence[int] = (256, 256),
+    layer_norm: bool = False,
+    inputs: str = "all",
 ) -> TensorDictModule:
     """Per-AUV Lyapunov critic's raw output z(o, a) (shared weights) at
     ``("agents", "lyapunov_raw")``; the form (e.g. softplus) is applied by the loss and the
-    selector; ``layer_norm``: :class:`ObsActionMLP`'s."""
+    selector; ``layer_norm``: :class:`ObsActionMLP`'s.
+
+    ``inputs`` (:data:`LYAPUNOV_INPUTS`): which observation features it reads, besides the
+    action: ``"all"``, or ``"task"``: the task's features only
+    (:data:`torchrl_auv.iout.OBSERVATION_FEATURES`: the target's offset and distance, the
+    node, the area's edges, the current estimate, ...), not the vehicle's own (its velocities,
+    rates and attitude: :data:`torchrl_auv.envs.data_collection.VEHICLE_FEATURES`), which
+    waves shake from one decision to the next while the leg's cost-to-go hardly moves.
+
+    Examples:
+        >>> from torchrl_auv.training import make_env
+        >>> env = make_env("ideal", seed=0, num_envs=1)
+        >>> critic = make_lyapunov_critic(env, (8,), inputs="task")
+        >>> td = env.reset()
+        >>> td["agents", "action"] = torch.zeros(1, 2, 3)
+        >>> a = critic(td.clone())["agents", "lyapunov_raw"]
+        >>> td["agents", "observation"][..., 24:] += 1.0  # the vehicle's features
+        >>> torch.equal(a, critic(td)["agents", "lyapunov_raw"])
+        True
+    """
+    if inputs not in LYAPUNOV_INPUTS:
+        raise ValueError(f"inputs must be one of {LYAPUNOV_INPUTS}, got {inputs!r}")
     obs_dim, act_dim = observation_action_dims(env)
+    read = len(OBSERVATION_FEATURES) if inputs == "task" else None
+    body = ObsActionMLP((read or obs_dim) + act_dim, hidden, layer_norm, observation_features=read)
     return TensorDictModule(
-        ObsActionMLP(obs_dim + act_dim, hidden, layer_norm),
+        body,
         in_keys=[OBSERVATION, ACTION],
         out_keys=[LYAPUNOV_RAW],
     )

@@ -274,6 +274,10 @@ class LyapunovConfig:
     filter: str = "off"  # off | rank: the task critic's choice among the candidates that keep
     #   the decrease condition, else the least L | veto: the medoid where it keeps it, else as
     #   rank (LyapunovFilter; needs cost=stability, the candidate backup, the selection)
+    inputs: str = "all"  # all | task: the critic reads the task's features only, not the
+    #   vehicle's (velocities, rates: waves shake them each decision; make_lyapunov_critic)
+    gamma: float | None = None  # the Lyapunov critic's discount (null: optim.gamma); legs end at
+    #   service start, so near 1 is well posed and widens where the condition can hold
 
 
 @dataclass
