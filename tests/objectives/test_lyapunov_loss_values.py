@@ -248,6 +248,26 @@ def test_legs_mask_the_critic_and_the_condition_and_the_equilibrium_absorbs(cons
         assert not torch.allclose(mean["loss_actor"], out["loss_actor"])
 
 
+def test_the_lyapunov_critic_has_its_own_discount_and_the_task_critic_keeps_gamma():
+    """``make_value_estimator(lyapunov_gamma=...)``: the Lyapunov TD target discounts with
+    it; without it, with ``gamma``; a value outside (0, 1] is refused by name."""
+    spec = LyapunovSpec(form="softplus", alpha=0.3)
+    data = _leg_data()
+    loss = _loss(spec, "lac", target_entropy=-1.5)
+    loss.make_value_estimator(gamma=0.9, lyapunov_gamma=0.5)
+    assert (loss.gamma, loss.lyapunov_gamma) == (0.9, 0.5)
+    expected = _expected(
+        data, spec, mode="lac", gamma=0.5, lam=0.7, beta=0.3, target_entropy=-1.5, legs=True
+    )
+    _check(loss(data), {"loss_lyapunov": expected["loss_lyapunov"]})
+    loss.make_value_estimator(gamma=0.8)  # keeps the Lyapunov discount it was given
+    assert loss.lyapunov_gamma == 0.5
+    loss.make_value_estimator(lyapunov_gamma=None)  # back to gamma
+    assert loss.lyapunov_gamma == 0.8
+    with pytest.raises(ValueError, match="lyapunov_gamma must be in"):
+        loss.make_value_estimator(lyapunov_gamma=1.2)
+
+
 def test_the_pid_multiplier_follows_the_constraint_error_and_integrates_it():
     """multiplier="pid": lambda = clip(kp e + ki I + kd max(0, e - e_prev), 0, lambda_max)
     with I = max(0, I + e), e the batch's mean Delta L; updated in training mode only; the

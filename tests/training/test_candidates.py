@@ -70,7 +70,12 @@ def test_both_learners_step_on_the_frames_the_buffer_stores(collected):
                 "alpha_init": 1.0,
                 "tau": 0.005,
             },
-            "lyapunov": {"form": "softplus", "stability_weight": 0.1, "cost": "stability"},
+            "lyapunov": {
+                "form": "softplus",
+                "stability_weight": 0.1,
+                "cost": "stability",
+                "gamma": 0.999,
+            },
             "network": {"hidden": [16]},
             "device": "cpu",
             "selection": {"backup": "candidates", "anchor": "medoid"},
@@ -80,6 +85,7 @@ def test_both_learners_step_on_the_frames_the_buffer_stores(collected):
     lac = training.lac_from_config(cfg, env, actor, critic, rule=rule)
     sac = training.sac_from_config(cfg, env, actor, rule=rule)
     assert lac.loss.backup == sac.loss.backup == "candidates"
+    assert (lac.loss.gamma, lac.loss.lyapunov_gamma) == (0.97, 0.999)  # lyapunov.gamma
     for learner, key in ((lac, "loss_lyapunov"), (sac, "loss_qvalue")):
         out = learner.step(frames[:8])
         assert out[key].isfinite()

@@ -54,6 +54,10 @@ from torchrl_auv.objectives import LyapunovSpec, LyapunovSpecState
         ({"lyapunov": {"filter": "rank"}, "residual": {"bound": 0.2}}, "residual.bound"),
         ({"lyapunov": {"filter": "on"}}, "lyapunov.filter"),
         ({"lyapunov": {"filter": "veto"}, "selection": {"anchor": None}}, "selection.anchor"),
+        ({"lyapunov": {"inputs": "vehicle"}}, "lyapunov.inputs"),
+        ({"lyapunov": {"gamma": 1.5}}, "lyapunov.gamma"),
+        ({"lyapunov": {"gamma": 0}}, "lyapunov.gamma"),
+        ({"lyapunov": {"gamma": True}}, "lyapunov.gamma"),
     ],
 )
 def test_check_choices_names_the_key(cfg, named):
@@ -383,6 +387,41 @@ def test_the_critic_loss_functions_reach_the_losses():
     assert training.make_lac_loss(actor, lyapunov, env).loss_function == "l2"
     huber = training.make_lac_loss(actor, lyapunov, env, loss_function="smooth_l1")
     assert huber.loss_function == "smooth_l1"
+
+
+def test_the_lyapunov_critic_reads_the_task_features_only_where_asked():
+    """lyapunov.inputs=task: the critic's output moves with a task feature (the target's
+    distance) and not with the vehicle's (entries 24-37); all: with both. lyapunov.gamma
+    reaches the loss as its Lyapunov discount, the task critic keeping optim.gamma."""
+    env = training.make_env("ideal", seed=0, num_envs=1, max_steps=5)
+    cfg = OmegaConf.create(
+        {
+            "network": {"hidden": [8]},
+            "device": "cpu",
+            "lyapunov": {"inputs": "task", "form": "softplus", "stability_weight": 0.1},
+        }
+    )
+    td = env.reset()
+    td["agents", "action"] = torch.zeros(1, 2, 3)
+
+    def moved(critic, index):
+        shaken = td.clone()
+        shaken["agents", "observation"][..., index] += 0.5
+        before = critic(td.clone())["agents", "lyapunov_raw"]
+        return not torch.equal(before, critic(shaken)["agents", "lyapunov_raw"])
+
+    torch.manual_seed(0)
+    task = training.lyapunov_critic_from_config(cfg, env)
+    assert moved(task, 3) and not moved(task, slice(24, 38))
+    cfg.lyapunov.inputs = "all"
+    every = training.lyapunov_critic_from_config(cfg, env)
+    assert moved(every, 3) and moved(every, slice(24, 38))
+    with pytest.raises(ValueError, match="inputs must be one of"):
+        training.make_lyapunov_critic(env, (8,), inputs="vehicle")
+    actor = training.make_actor(env, (8,))
+    loss = training.make_lac_loss(actor, task, env, gamma=0.99, lyapunov_gamma=0.999)
+    assert (loss.gamma, loss.lyapunov_gamma) == (0.99, 0.999)
+    assert training.make_lac_loss(actor, task, env, gamma=0.99).lyapunov_gamma == 0.99
 
 
 def test_the_lyapunov_cost_choice_sets_what_each_critic_learns():
