@@ -297,6 +297,32 @@ def test_the_pid_multiplier_follows_the_constraint_error_and_integrates_it():
         _loss(spec, "lac", multiplier="pid", pid_gains=(1.0, -1.0, 0.0))
 
 
+def test_with_a_violation_budget_the_pid_follows_the_violation_rate_over_it():
+    """violation_budget b: the PID's error is the batch's violation rate over the approach
+    transitions minus b (a chance constraint), not the mean Delta L; b needs the PID."""
+    spec = LyapunovSpec(form="softplus", alpha=0.3)
+    kp, ki = 2.0, 0.5
+    data = _leg_data()
+    data["next", "cost"] = 3 * data["next", "cost"]  # some transitions violate, some not
+    e = _expected(
+        data, spec, mode="lac", gamma=0.99, lam=0.7, beta=0.3, target_entropy=-2.0, legs=True
+    )
+    rate = float(e["violation_rate"])
+    assert 0 < rate < 1 and float(e["delta_l"]) != pytest.approx(rate - 0.05)
+    loss = _loss(spec, "lac", multiplier="pid", pid_gains=(kp, ki, 0.0), violation_budget=0.05)
+    loss.lambda_max = 50.0
+    out = loss(data)
+    assert out["violation_rate"].item() == pytest.approx(rate)
+    assert out["lambda"].item() == pytest.approx((kp + ki) * (rate - 0.05), rel=1e-5)
+    # a budget above the rate: a negative error lowers the integral to 0 and lambda to 0
+    loose = _loss(spec, "lac", multiplier="pid", pid_gains=(kp, ki, 0.0), violation_budget=0.99)
+    assert loose(data)["lambda"].item() == 0.0
+    with pytest.raises(ValueError, match="violation_budget"):
+        _loss(spec, "lac", multiplier="dual", violation_budget=0.05)
+    with pytest.raises(ValueError, match="violation_budget"):
+        _loss(spec, "lac", multiplier="pid", violation_budget=1.0)
+
+
 def test_a_fixed_zero_multiplier_switches_the_constraint_off():
     spec = LyapunovSpec(form="softplus", alpha=0.3)
     actor, critic = _modules()

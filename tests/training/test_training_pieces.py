@@ -55,6 +55,11 @@ from torchrl_auv.objectives import LyapunovSpec, LyapunovSpecState
         ({"lyapunov": {"filter": "on"}}, "lyapunov.filter"),
         ({"lyapunov": {"filter": "veto"}, "selection": {"anchor": None}}, "selection.anchor"),
         ({"lyapunov": {"inputs": "vehicle"}}, "lyapunov.inputs"),
+        ({"optim": {"violation_budget": 1.0}}, "optim.violation_budget"),
+        (
+            {"optim": {"violation_budget": 0.05, "multiplier": "dual"}},
+            "optim.violation_budget",
+        ),
         ({"lyapunov": {"gamma": 1.5}}, "lyapunov.gamma"),
         ({"lyapunov": {"gamma": 0}}, "lyapunov.gamma"),
         ({"lyapunov": {"gamma": True}}, "lyapunov.gamma"),

@@ -81,7 +81,9 @@ by another's decrease); ``"hinge"`` charges :math:`\lambda\,\mathbb E[\max(0, \D
 each violating sample on its own. ``multiplier="dual"`` moves :math:`\log\lambda` by
 gradient ascent on :math:`\mathbb E[\Delta L]` (published; its pace is the optimiser's step
 size, not the constraint's); ``"pid"`` sets :math:`\lambda` from a PID controller on the
-batch's :math:`e = \mathbb E[\Delta L]` (Stooke, Achiam and Abbeel 2020): :math:`I
+batch's :math:`e = \mathbb E[\Delta L]` (Stooke, Achiam and Abbeel 2020; with
+``violation_budget`` :math:`b`, :math:`e = P(\Delta L > 0) - b`, the batch's violation rate
+over the budget: the mean can be negative while a tenth of the transitions violate): :math:`I
 \leftarrow \max(0, I + e)`, :math:`\lambda = \mathrm{clip}(k_p e + k_i I + k_d \max(0, e -
 e_{prev}), 0, \lambda_{max})`, updated by every forward call in training mode (the module's
 ``train()``), so a persistent violation raises :math:`\lambda` however small, and a
@@ -192,6 +194,10 @@ class LyapunovActorCriticLoss(LossModule):
             0 for ``"pid"`` and ``"fixed"``.
         pid_gains: ``(kp, ki, kd)`` >= 0 of the ``"pid"`` multiplier (per unit of
             :math:`\\Delta L`; default ``(1, 0.01, 0)``).
+        violation_budget: ``None`` (the PID's error is :math:`\\mathbb E[\\Delta L]`), or the
+            fraction in [0, 1) of approach transitions allowed to violate the condition: the
+            ``"pid"`` multiplier's error is then the batch's violation rate minus it (a chance
+            constraint, what :class:`~torchrl_auv.evaluation.LyapunovCertificate` measures).
         filter_candidates: ``None``, or the ``mode`` of the selector's
             :class:`~torchrl_auv.modules.LyapunovFilter` (:data:`~torchrl_auv.modules.FILTER_MODES`;
             ranking by the task critic; needs ``qvalue_network`` and ``backup="candidates"``,
@@ -287,6 +293,7 @@ class LyapunovActorCriticLoss(LossModule):
         multiplier: str = "dual",
         pid_gains: tuple[float, float, float] = (1.0, 0.01, 0.0),
         filter_candidates: str | None = None,
+        violation_budget: float | None = None,
     ) -> None:
         check_backup(backup)
         if filter_candidates not in (None, *FILTER_MODES):
@@ -307,6 +314,13 @@ class LyapunovActorCriticLoss(LossModule):
             raise ValueError(f"constraint must be one of {CONSTRAINTS}, got {constraint!r}")
         if multiplier not in MULTIPLIERS:
             raise ValueError(f"multiplier must be one of {MULTIPLIERS}, got {multiplier!r}")
+        if violation_budget is not None and not 0 <= violation_budget < 1:
+            raise ValueError(f"violation_budget must be None or in [0, 1), got {violation_budget}")
+        if violation_budget is not None and multiplier != "pid":
+            raise ValueError(
+                f"violation_budget sets the PID multiplier's error: it needs multiplier='pid', "
+                f"got {multiplier!r}"
+            )
         if len(pid_gains) != 3 or any(not gain >= 0 for gain in pid_gains):
             raise ValueError(f"pid_gains must be three numbers >= 0 (kp, ki, kd), got {pid_gains}")
         if loss_function not in LOSS_FUNCTIONS:
@@ -348,6 +362,7 @@ class LyapunovActorCriticLoss(LossModule):
         self.constraint, self.multiplier = constraint, multiplier
         self.filter_candidates = filter_candidates
         self.pid_gains = tuple(float(gain) for gain in pid_gains)
+        self.violation_budget = None if violation_budget is None else float(violation_budget)
         # the dual's parameter (multiplier "dual"); kept for the others so that optimisers
         # and state dicts have one shape
         self.log_lambda = torch.nn.Parameter(torch.tensor(max(float(lambda_init), 1e-8)).log())
@@ -694,8 +709,12 @@ class LyapunovActorCriticLoss(LossModule):
             return (x * on_leg).sum() / legs
 
         mean_delta = over_legs(delta)
+        violation_rate = over_legs((delta.detach() > 0).to(delta.dtype))
         if self.multiplier == "pid" and self.training:
-            self._pid_step(mean_delta.detach())
+            if self.violation_budget is None:
+                self._pid_step(mean_delta.detach())
+            else:  # the chance constraint P(Delta L > 0) <= budget
+                self._pid_step(violation_rate - self.violation_budget)
         owed = mean_delta if self.constraint == "mean" else over_legs(delta.clamp_min(0))
         loss_actor = self.lambda_.detach() * owed + self.beta.detach() * log_prob.mean()
         task = {}
@@ -725,7 +744,7 @@ class LyapunovActorCriticLoss(LossModule):
                 "lambda": self.lambda_.detach(),
                 "beta": self.beta.detach(),
                 "delta_l": mean_delta.detach(),
-                "violation_rate": over_legs((delta.detach() > 0).to(delta.dtype)),
+                "violation_rate": violation_rate,
                 "lyapunov_value": over_legs(value.detach()),
                 "leg_fraction": on_leg.mean(),
                 "negative_cost_fraction": (cost < 0).float().mean(),

@@ -185,6 +185,15 @@ def check_lac_values(cfg: Mapping) -> None:
         raise ValueError(f"optim.lambda_init must be > 0 with optim.multiplier=dual, got {init!r}")
     if init is not None and cap is not None and init > cap:
         raise ValueError(f"optim.lambda_init ({init}) must be <= optim.lambda_max ({cap})")
+    budget = _get(cfg, "optim.violation_budget")
+    if budget is not None:
+        if isinstance(budget, bool) or not isinstance(budget, int | float) or not 0 <= budget < 1:
+            raise ValueError(f"optim.violation_budget must be null or in [0, 1), got {budget!r}")
+        if multiplier not in (None, "pid"):
+            raise ValueError(
+                "optim.violation_budget sets the PID multiplier's error: it needs "
+                f"optim.multiplier=pid, got {multiplier!r}"
+            )
     gains = _get(cfg, "optim.pid_gains")
     if gains is not None and (
         len(gains) != 3

@@ -114,6 +114,7 @@ def make_lac_loss(
     constraint: str = "mean",
     filter_candidates: str | None = None,
     lyapunov_gamma: float | None = None,
+    violation_budget: float | None = None,
 ) -> LyapunovActorCriticLoss:
     """:class:`~torchrl_auv.objectives.LyapunovActorCriticLoss` on the agents layout
     (``loss_function``: the critics' TD loss, ``l2`` or ``smooth_l1``).
@@ -131,9 +132,9 @@ def make_lac_loss(
     ``"actor"``: the actor acts). ``legs``: the Lyapunov critic and the decrease condition
     per approach leg, absorbing at service start (the env's ``("agents", "approach" |
     "service_start")``; the loss's docstring). ``multiplier``, ``lambda_init``,
-    ``pid_gains``, ``constraint``, ``filter_candidates``: the loss's arguments of those
-    names; ``lyapunov_gamma``: the Lyapunov critic's discount (``None``: ``gamma``;
-    :meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.make_value_estimator`)."""
+    ``pid_gains``, ``constraint``, ``filter_candidates``, ``violation_budget``: the loss's
+    arguments of those names; ``lyapunov_gamma``: the Lyapunov critic's discount (``None``:
+    ``gamma``; :meth:`~torchrl_auv.objectives.LyapunovActorCriticLoss.make_value_estimator`)."""
     if cost not in LYAPUNOV_COSTS:
         raise ValueError(f"cost must be one of {LYAPUNOV_COSTS}, got {cost!r}")
     qvalue = make_q_critic(env, hidden, layer_norm) if cost == "stability" else None
@@ -154,6 +155,7 @@ def make_lac_loss(
         pid_gains=tuple(pid_gains),
         constraint=constraint,
         filter_candidates=filter_candidates,
+        violation_budget=violation_budget,
         **residual,
     )
     lyapunov_cost = (AGENTS, "stability_cost") if cost == "stability" else (AGENTS, "cost")
@@ -283,6 +285,7 @@ def lac_from_config(
         lambda_init=optim.get("lambda_init", 1.0),
         pid_gains=optim.get("pid_gains", (1.0, 0.01, 0.0)),
         constraint=optim.get("constraint", "mean"),
+        violation_budget=optim.get("violation_budget", None),
         filter_candidates=filter_mode(cfg),
         lyapunov_gamma=lyapunov.get("gamma", None),
         hidden=cfg["network"]["hidden"],

@@ -244,6 +244,7 @@ class LACOptimConfig:
     lambda_init: float = 1.0  # the multiplier's start (fixed: its value; 0 = no constraint)
     pid_gains: list[float] = field(default_factory=lambda: [1.0, 0.01, 0.0])  # kp, ki, kd
     constraint: str = "mean"  # mean: lambda E[dL] (published) | hinge: lambda E[max(0, dL)]
+    violation_budget: float | None = None  # pid: error = violation rate - budget (null: E[dL])
 
 
 @dataclass
