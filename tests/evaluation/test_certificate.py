@@ -98,6 +98,9 @@ def test_each_transition_against_the_hand_calculation():
     assert row["lyapunov_decrease_holds"] == 0.75
     assert row["lyapunov_violation_upper95"] == pytest.approx(clopper_pearson_upper(1, 4))
     assert row["lyapunov_delta_mean"] == pytest.approx(sum(by_hand) / 4)
+    changes = torch.tensor([4.0 - 9.0, 4.0 - 4.0, 1.0 - 4.0, 0.0 - 1.0], dtype=torch.float64)
+    assert row["lyapunov_change_std"] == pytest.approx(changes.std().item())
+    assert row["lyapunov_margin_mean"] == pytest.approx(alpha * (1.0 + 1.0 + 2.0 + 1.0) / 4)
 
 
 def test_an_episode_end_absorbs_and_nothing_is_compared_across_a_reset():

@@ -18,7 +18,12 @@ decisions (and that neither starts service nor ends the episode) is not counted.
 :class:`LyapunovCertificate` computes, for one evaluation row, ``lyapunov_transitions``
 (:math:`n`), ``lyapunov_decrease_holds`` (the fraction that satisfy the condition),
 ``lyapunov_violation_upper95`` (the one-sided 95 % Clopper-Pearson upper bound on the
-violation rate, :func:`clopper_pearson_upper`) and ``lyapunov_delta_mean``. The bound treats
+violation rate, :func:`clopper_pearson_upper`) and ``lyapunov_delta_mean``, and what
+decides the fraction: ``lyapunov_change_std``, the standard deviation of the change
+:math:`(1 - e_t)(1 - d_t) L(s_{t+1}, a_{t+1}) - L(s_t, a_t)`, against
+``lyapunov_margin_mean``, the mean :math:`\alpha c_t` it must fall below (where the
+change's spread is many times the margin, about half of the transitions violate whatever
+the mean). The bound treats
 the transitions as independent draws; consecutive decisions of one AUV are not, so it is an
 optimistic bound (the scenes, 16 by default, are the independent units).
 
@@ -54,6 +59,8 @@ CERTIFICATE_KEYS = (
     "lyapunov_decrease_holds",
     "lyapunov_violation_upper95",
     "lyapunov_delta_mean",
+    "lyapunov_change_std",
+    "lyapunov_margin_mean",
 )
 
 
@@ -184,9 +191,14 @@ class LyapunovCertificate:
         delta, counted = self.deltas(rollout, mask)
         n = int(counted.sum())
         violations = int((counted & (delta > 0)).sum())
+        nxt = rollout["next"]
+        margin = (self.spec.alpha * nxt[self.cost_key][..., 0])[counted].double()
+        change = delta[counted].double() - margin
         return {
             "lyapunov_transitions": float(n),
             "lyapunov_decrease_holds": (n - violations) / n if n else float("nan"),
             "lyapunov_violation_upper95": clopper_pearson_upper(violations, n),
             "lyapunov_delta_mean": delta[counted].double().mean().item() if n else float("nan"),
+            "lyapunov_change_std": change.std().item() if n > 1 else float("nan"),
+            "lyapunov_margin_mean": margin.mean().item() if n else float("nan"),
         }

@@ -76,7 +76,8 @@ def write_certificate(rows: list[dict], run_dir: Path, certificate) -> Path:
     condition on the row's executed approach transitions
     (``certificate``: the :class:`~torchrl_auv.evaluation.LyapunovCertificate` of the
     rows; :data:`~torchrl_auv.evaluation.CERTIFICATE_KEYS` without their ``lyapunov_`` prefix:
-    ``transitions``, ``decrease_holds``, ``violation_upper95``, ``delta_mean``), with the
+    ``transitions``, ``decrease_holds``, ``violation_upper95``, ``delta_mean``,
+    ``change_std``, ``margin_mean``), with the
     Lyapunov spec the critic was read with. Returns its path."""
     spec = certificate.spec
     out = {
