@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from torchrl_auv.advisor import (
+    FORM_ORDER,
     AdvisorDecision,
     RuleBasedAdvisor,
     TrainingFeedback,
@@ -64,6 +65,33 @@ def test_forms_saturate_and_alpha_stays_in_range():
         "", TrainingFeedback(position_oscillation=1.0), LyapunovSpec(form="squared", alpha=0.5)
     )
     assert (strong.form, strong.alpha) == ("squared", 0.5)
+
+
+def test_the_rules_pick_only_the_allowed_forms():
+    """forms=("softplus", "squared"): gentler stops at softplus (alpha still halves), a
+    gentle task's log becomes softplus, a current log form moves from its nearest allowed;
+    the form set is checked."""
+    no_log = RuleBasedAdvisor(forms=["squared", "softplus"])  # any order: gentle to aggressive
+    assert no_log.forms == ("softplus", "squared")
+    high = TrainingFeedback(violation_rate=0.7)
+    gentler = no_log.propose("", high, LyapunovSpec(form="squared", alpha=0.2))
+    assert (gentler.form, gentler.alpha) == ("softplus", 0.1)
+    floor = no_log.propose("", high, CURRENT)
+    assert (floor.form, floor.alpha) == ("softplus", 0.1)
+    start = no_log.propose("Smooth, energy-efficient data collection", None, CURRENT)
+    assert (start.form, start.alpha) == ("softplus", 0.1)
+    oscillating = TrainingFeedback(position_oscillation=0.9)
+    assert no_log.propose("", oscillating, LyapunovSpec(form="log")).form == "squared"
+    only = RuleBasedAdvisor(forms=("squared",))
+    assert only.propose("Collect data", None, CURRENT).form == "squared"
+    for bad in ((), ("softplus", "cubic")):
+        with pytest.raises(ValueError, match="forms must be a non-empty subset"):
+            RuleBasedAdvisor(forms=bad)
+    from torchrl_auv.training import advisor_from_config
+
+    configured = advisor_from_config({"advisor": {"backend": "rules", "forms": ["softplus"]}})
+    assert configured.forms == ("softplus",)
+    assert advisor_from_config({"advisor": {"backend": "rules"}}).forms == FORM_ORDER
 
 
 def test_thresholds_are_arguments():

@@ -55,6 +55,8 @@ from torchrl_auv.objectives import LyapunovSpec, LyapunovSpecState
         ({"lyapunov": {"filter": "on"}}, "lyapunov.filter"),
         ({"lyapunov": {"filter": "veto"}, "selection": {"anchor": None}}, "selection.anchor"),
         ({"lyapunov": {"inputs": "vehicle"}}, "lyapunov.inputs"),
+        ({"advisor": {"forms": ["softplus", "cubic"]}}, "advisor.forms"),
+        ({"advisor": {"forms": []}}, "advisor.forms"),
         ({"optim": {"violation_budget": 1.0}}, "optim.violation_budget"),
         (
             {"optim": {"violation_budget": 0.05, "multiplier": "dual"}},

@@ -1,4 +1,4 @@
-"""``RuleBasedAdvisor``: the offline default. A rule-based stand-in for the LLM, not an LLM.
+r"""``RuleBasedAdvisor``: the offline default. A rule-based stand-in for the LLM, not an LLM.
 
 Deterministic and dependency-free. It reads the task text once (at the start, when there is no
 feedback yet) and afterwards only the :class:`~torchrl_auv.advisor.TrainingFeedback`. Forms are
@@ -32,6 +32,12 @@ otherwise                                              keep the current spec
 =====================================================  =========================================
 
 Alpha always stays in [0.05, 0.5].
+
+``forms`` (default all of :data:`FORM_ORDER`) narrows the forms the rules may pick, gentle to
+aggressive as above: "one form gentler" stops at the gentlest allowed, a keyword's form
+outside them becomes the nearest allowed. The data-collection legs need it: a leg's Lyapunov
+value is 10-40, which ``log`` (:math:`\log(1 + z^2)`) reaches only at :math:`|z|` of
+:math:`e^5` to :math:`e^{20}`, where its gradient :math:`2 / |z|` has vanished.
 """
 
 from __future__ import annotations
@@ -52,9 +58,18 @@ _GENTLE_WORDS = ("smooth", "gentle", "energy", "efficien")
 _VELOCITY_WORDS = ("velocity", "speed", "rate")
 
 
-def _shift(form: str, steps: int) -> str:
-    i = FORM_ORDER.index(form) + steps
-    return FORM_ORDER[min(max(i, 0), len(FORM_ORDER) - 1)]
+def _nearest(form: str, forms: tuple[str, ...]) -> str:
+    """``form`` if allowed, else the allowed form nearest to it in :data:`FORM_ORDER` (the
+    gentler one on a tie)."""
+    if form in forms:
+        return form
+    rank = FORM_ORDER.index(form)
+    return min(forms, key=lambda f: (abs(FORM_ORDER.index(f) - rank), FORM_ORDER.index(f)))
+
+
+def _shift(form: str, steps: int, forms: tuple[str, ...] = FORM_ORDER) -> str:
+    i = forms.index(_nearest(form, forms)) + steps
+    return forms[min(max(i, 0), len(forms) - 1)]
 
 
 class RuleBasedAdvisor:
@@ -64,6 +79,8 @@ class RuleBasedAdvisor:
         violation_high: violation rate above which the form gets gentler.
         oscillation_high: oscillation index above which the form gets more aggressive.
         worsening: return-trend drop that, with a rising Lyapunov value, raises alpha.
+        forms: the forms the rules may pick (module docstring; a non-empty subset of
+            :data:`FORM_ORDER`, default all).
 
     Examples:
         >>> advisor = RuleBasedAdvisor()
@@ -73,6 +90,9 @@ class RuleBasedAdvisor:
         ...                     LyapunovSpec(form="squared", alpha=0.2))
         >>> d.form, d.alpha
         ('softplus', 0.1)
+        >>> no_log = RuleBasedAdvisor(forms=("softplus", "squared"))
+        >>> no_log.propose("", TrainingFeedback(violation_rate=0.8), LyapunovSpec()).form
+        'softplus'
     """
 
     source = "rules"
@@ -83,7 +103,14 @@ class RuleBasedAdvisor:
         violation_high: float = VIOLATION_HIGH,
         oscillation_high: float = OSCILLATION_HIGH,
         worsening: float = WORSENING,
+        forms: tuple[str, ...] | list[str] = FORM_ORDER,
     ) -> None:
+        unknown = [f for f in forms if f not in FORM_ORDER]
+        if not forms or unknown:
+            raise ValueError(
+                f"forms must be a non-empty subset of {FORM_ORDER}, got {list(forms)!r}"
+            )
+        self.forms = tuple(f for f in FORM_ORDER if f in forms)
         for name, value in (
             ("violation_high", violation_high),
             ("oscillation_high", oscillation_high),
@@ -107,12 +134,13 @@ class RuleBasedAdvisor:
                 form, alpha, why = "log", 0.1, "the task asks for smooth, energy-aware control"
             else:
                 form, alpha, why = "softplus", 0.1, "no preference in the task: the paper's default"
+            form = _nearest(form, self.forms)
             prior = "velocity" if any(w in text for w in _VELOCITY_WORDS) else None
         elif feedback.violation_rate >= self.violation_high:
-            form, alpha = _shift(form, -1), alpha * 0.5
+            form, alpha = _shift(form, -1, self.forms), alpha * 0.5
             why = f"violation rate {feedback.violation_rate:.2f} persistently high: gentler"
         elif feedback.oscillation_index >= self.oscillation_high:
-            form, alpha = _shift(form, +1), alpha * 1.5
+            form, alpha = _shift(form, +1, self.forms), alpha * 1.5
             velocity = feedback.velocity_oscillation > feedback.position_oscillation
             prior = "velocity" if velocity else "position"
             why = (

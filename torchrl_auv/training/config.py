@@ -139,6 +139,11 @@ def check_choices(cfg: Mapping) -> None:
     ):
         raise ValueError(f"lyapunov.stability_weight must be a finite number > 0, got {weight!r}")
     check_lac_values(cfg)
+    forms = _get(cfg, "advisor.forms")
+    if forms is not None and (not forms or any(f not in FORMS for f in forms)):
+        raise ValueError(
+            f"advisor.forms must be a non-empty list of {sorted(FORMS)}, got {list(forms)!r}"
+        )
     finetune = _get(cfg, "finetune")
     if isinstance(finetune, Mapping):
         check_finetune(finetune)

@@ -304,12 +304,13 @@ def lac_from_config(
 
 
 def advisor_from_config(cfg: Mapping):
-    """The advisor of ``cfg.advisor.backend``: ``rules`` (offline default), ``fixed`` (the form
+    """The advisor of ``cfg.advisor.backend``: ``rules`` (offline default; ``advisor.forms``,
+    absent: all, the forms its rules may pick), ``fixed`` (the form
     and weight stay as configured: the alpha and form studies) or ``openai`` (any
     OpenAI-compatible endpoint at ``base_url``, the key read from ``api_key_env``)."""
     a = cfg["advisor"]
-    if a["backend"] == "rules":
-        return advisors.RuleBasedAdvisor()
+    if a["backend"] == "rules":  # advisor.forms (absent: all): the forms it may pick
+        return advisors.RuleBasedAdvisor(forms=tuple(a.get("forms", None) or advisors.FORM_ORDER))
     if a["backend"] == "fixed":
         return advisors.FixedAdvisor()
     if a["backend"] == "openai":

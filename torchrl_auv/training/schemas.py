@@ -293,6 +293,8 @@ class AdvisorConfig:
     cooldown: int = 20_000  # frames between consultations after the start
     window: int = 5  # collected batches the feedback summarises
     task: str = MISSING  # the task's text the advisor reads
+    forms: list[str] = field(default_factory=lambda: ["log", "softplus", "squared"])  # rules:
+    #   the forms it may pick (drop log where L reaches tens: RuleBasedAdvisor's docstring)
     position_indices: list[int] = field(default_factory=lambda: [0, 1, 2])  # target offset
     velocity_indices: list[int] = field(default_factory=lambda: [23, 24, 25])  # u, v, w
 
