@@ -19,7 +19,8 @@ the condition :math:`(1 - e) L(s') - L(s) + \alpha c \le 0` (stability cost :mat
 A learned critic is no better placed than these where the expert's own approach does not close
 on its target: the expert arrives from downstream, bow into the current, and first swings
 round. Prints one markdown table (policy, candidate, transitions, the share that hold, the
-change's spread against the margin) and writes it as CSV with ``--csv``.
+change's spread against the margin; the legs, the share whose summed condition holds, the
+share that arrived) and writes it as CSV with ``--csv``.
 """
 
 from __future__ import annotations
@@ -110,12 +111,16 @@ def main(argv=None) -> None:
     parser.add_argument("--csv", default=None)
     args = parser.parse_args(argv)
     rows = measure(args.seas, args.scenes, args.steps, args.seed, args.alpha)
-    print("| sea | policy | L | transitions | holds | change std | margin mean |")
-    print("|---|---|---|---|---|---|---|")
+    print(
+        "| sea | policy | L | transitions | holds | change std | margin mean | legs | "
+        "legs that hold | legs arrived |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(
             f"| {r['sea_state']} | {r['policy']} | {r['candidate']} | {r['transitions']:.0f} | "
-            f"{r['decrease_holds']:.3f} | {r['change_std']:.4f} | {r['margin_mean']:.4f} |"
+            f"{r['decrease_holds']:.3f} | {r['change_std']:.4f} | {r['margin_mean']:.4f} | "
+            f"{r['legs']:.0f} | {r['leg_decrease_holds']:.3f} | {r['legs_arrived']:.3f} |"
         )
     if args.csv:
         with open(args.csv, "w", newline="") as handle:

@@ -101,6 +101,23 @@ def test_each_transition_against_the_hand_calculation():
     changes = torch.tensor([4.0 - 9.0, 4.0 - 4.0, 1.0 - 4.0, 0.0 - 1.0], dtype=torch.float64)
     assert row["lyapunov_change_std"] == pytest.approx(changes.std().item())
     assert row["lyapunov_margin_mean"] == pytest.approx(alpha * (1.0 + 1.0 + 2.0 + 1.0) / 4)
+    # one leg, 0-3, arriving: its sum telescopes to 0 - 9 + alpha (1 + 1 + 2 + 1) = -6.5
+    assert (row["lyapunov_legs"], row["lyapunov_leg_decrease_holds"]) == (1, 1.0)
+    assert row["lyapunov_legs_arrived"] == 1.0
+    sums, _ = certify.legs(delta, counted, data["next", "agents", "service_start"][..., 0])
+    assert sums.tolist() == pytest.approx([sum(by_hand)])
+
+
+def test_legs_split_at_an_arrival_and_at_a_transition_not_counted():
+    """Legs: a run of counted transitions ends where service starts (the next counted one
+    starts a new leg) or where the next is not counted; each leg's Delta L are summed."""
+    delta = torch.tensor([[1.0, 0.5], [-3.0, 0.5], [2.0, -2.0], [0.5, 0.5], [-1.0, 0.5]])
+    counted = torch.tensor([[1, 1], [1, 1], [1, 1], [0, 1], [1, 0]], dtype=torch.bool)
+    arrived = torch.tensor([[0, 0], [1, 0], [0, 1], [0, 0], [0, 0]], dtype=torch.bool)
+    sums, ended = LyapunovCertificate.legs(delta[None], counted[None], arrived[None])
+    # AUV 0: [0, 1] arrives, [2] then not counted, [4]; AUV 1: [0, 1, 2] arrives, [3]
+    assert sums.tolist() == pytest.approx([-2.0, 2.0, -1.0, -1.0, 0.5])
+    assert ended.tolist() == [True, False, False, True, False]
 
 
 def test_an_episode_end_absorbs_and_nothing_is_compared_across_a_reset():

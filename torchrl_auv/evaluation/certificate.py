@@ -23,7 +23,15 @@ decides the fraction: ``lyapunov_change_std``, the standard deviation of the cha
 :math:`(1 - e_t)(1 - d_t) L(s_{t+1}, a_{t+1}) - L(s_t, a_t)`, against
 ``lyapunov_margin_mean``, the mean :math:`\alpha c_t` it must fall below (where the
 change's spread is many times the margin, about half of the transitions violate whatever
-the mean). The bound treats
+the mean).
+
+**Per leg.** A leg is a run of counted transitions of one AUV, each the successor of the last,
+up to the first that is absorbed or whose successor is not counted (a target switch, the end
+of the evaluated decisions). Its :math:`\Delta L_t` telescope to :math:`(1 - e)(1 - d)
+L(s_{end}) - L(s_{start}) + \alpha \sum_t c_t`: the condition over the whole leg, in which
+the decisions' noise averages out. ``lyapunov_legs`` counts them,
+``lyapunov_leg_decrease_holds`` is the share whose sum is :math:`\le 0` and
+``lyapunov_legs_arrived`` the share that ended by starting service. The bound treats
 the transitions as independent draws; consecutive decisions of one AUV are not, so it is an
 optimistic bound (the scenes, 16 by default, are the independent units).
 
@@ -61,6 +69,9 @@ CERTIFICATE_KEYS = (
     "lyapunov_delta_mean",
     "lyapunov_change_std",
     "lyapunov_margin_mean",
+    "lyapunov_legs",
+    "lyapunov_leg_decrease_holds",
+    "lyapunov_legs_arrived",
 )
 
 
@@ -187,6 +198,36 @@ class LyapunovCertificate:
         counted = approach & mask[..., None] & (next_in_episode[..., None] | absorbed)
         return delta, counted
 
+    @staticmethod
+    def legs(
+        delta: torch.Tensor, counted: torch.Tensor, arrived: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Each leg's summed :math:`\\Delta L` and whether it arrived (module docstring), from
+        ``delta``, ``counted`` and ``arrived`` (service starts at the transition) ``[B, T, N]``;
+        legs ordered by scene, AUV, then time.
+
+        Examples:
+            >>> delta = torch.tensor([1.0, -3.0, 2.0, 0.5, -1.0]).view(1, 5, 1)
+            >>> counted = torch.tensor([True, True, True, False, True]).view(1, 5, 1)
+            >>> arrived = torch.tensor([False, True, False, False, False]).view(1, 5, 1)
+            >>> sums, ended = LyapunovCertificate.legs(delta, counted, arrived)
+            >>> sums.tolist(), ended.tolist()
+            ([-2.0, 2.0, -1.0], [True, False, False])
+        """
+        series = counted.transpose(1, 2).reshape(-1, counted.shape[1])  # [B N, T]
+        closes = (arrived & counted).transpose(1, 2).reshape(series.shape)
+        before = torch.cat([torch.zeros_like(series[:, :1]), series[:, :-1]], 1)
+        closed_before = torch.cat([torch.zeros_like(closes[:, :1]), closes[:, :-1]], 1)
+        starts = series & ~(before & ~closed_before)
+        index = starts.long().cumsum(1) - 1  # the leg's number within its series
+        offset = starts.sum(1).cumsum(0) - starts.sum(1)  # legs in the series before
+        index = (index + offset[:, None])[series]
+        n = int(starts.sum())
+        values = delta.transpose(1, 2).reshape(series.shape)[series].double()
+        sums = torch.zeros(n, dtype=torch.float64).index_add_(0, index, values)
+        ended = torch.zeros(n, dtype=torch.bool).index_put_((index,), closes[series], True)
+        return sums, ended
+
     def __call__(self, rollout: TensorDictBase, mask: torch.Tensor) -> dict[str, float]:
         delta, counted = self.deltas(rollout, mask)
         n = int(counted.sum())
@@ -194,6 +235,9 @@ class LyapunovCertificate:
         nxt = rollout["next"]
         margin = (self.spec.alpha * nxt[self.cost_key][..., 0])[counted].double()
         change = delta[counted].double() - margin
+        arrived = nxt[AGENT_SERVICE_START][..., 0]
+        sums, ended = self.legs(delta, counted, arrived)
+        legs = sums.numel()
         return {
             "lyapunov_transitions": float(n),
             "lyapunov_decrease_holds": (n - violations) / n if n else float("nan"),
@@ -201,4 +245,9 @@ class LyapunovCertificate:
             "lyapunov_delta_mean": delta[counted].double().mean().item() if n else float("nan"),
             "lyapunov_change_std": change.std().item() if n > 1 else float("nan"),
             "lyapunov_margin_mean": margin.mean().item() if n else float("nan"),
+            "lyapunov_legs": float(legs),
+            "lyapunov_leg_decrease_holds": (sums <= 0).double().mean().item()
+            if legs
+            else float("nan"),
+            "lyapunov_legs_arrived": ended.double().mean().item() if legs else float("nan"),
         }

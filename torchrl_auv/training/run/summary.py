@@ -77,7 +77,7 @@ def write_certificate(rows: list[dict], run_dir: Path, certificate) -> Path:
     (``certificate``: the :class:`~torchrl_auv.evaluation.LyapunovCertificate` of the
     rows; :data:`~torchrl_auv.evaluation.CERTIFICATE_KEYS` without their ``lyapunov_`` prefix:
     ``transitions``, ``decrease_holds``, ``violation_upper95``, ``delta_mean``,
-    ``change_std``, ``margin_mean``), with the
+    ``change_std``, ``margin_mean``, ``legs``, ``leg_decrease_holds``, ``legs_arrived``), with the
     Lyapunov spec the critic was read with. Returns its path."""
     spec = certificate.spec
     out = {
