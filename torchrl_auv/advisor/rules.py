@@ -67,7 +67,7 @@ def _nearest(form: str, forms: tuple[str, ...]) -> str:
     return min(forms, key=lambda f: (abs(FORM_ORDER.index(f) - rank), FORM_ORDER.index(f)))
 
 
-def _shift(form: str, steps: int, forms: tuple[str, ...] = FORM_ORDER) -> str:
+def _shift(form: str, steps: int, forms: tuple[str, ...]) -> str:
     i = forms.index(_nearest(form, forms)) + steps
     return forms[min(max(i, 0), len(forms) - 1)]
 

@@ -219,9 +219,8 @@ class LyapunovCertificate:
         before = torch.cat([torch.zeros_like(series[:, :1]), series[:, :-1]], 1)
         closed_before = torch.cat([torch.zeros_like(closes[:, :1]), closes[:, :-1]], 1)
         starts = series & ~(before & ~closed_before)
-        index = starts.long().cumsum(1) - 1  # the leg's number within its series
-        offset = starts.sum(1).cumsum(0) - starts.sum(1)  # legs in the series before
-        index = (index + offset[:, None])[series]
+        # each counted transition's leg: the legs started up to it, series after series
+        index = (starts.reshape(-1).long().cumsum(0) - 1)[series.reshape(-1)]
         n = int(starts.sum())
         values = delta.transpose(1, 2).reshape(series.shape)[series].double()
         sums = torch.zeros(n, dtype=torch.float64).index_add_(0, index, values)
@@ -233,21 +232,18 @@ class LyapunovCertificate:
         n = int(counted.sum())
         violations = int((counted & (delta > 0)).sum())
         nxt = rollout["next"]
+        counted_delta = delta[counted].double()
         margin = (self.spec.alpha * nxt[self.cost_key][..., 0])[counted].double()
-        change = delta[counted].double() - margin
-        arrived = nxt[AGENT_SERVICE_START][..., 0]
-        sums, ended = self.legs(delta, counted, arrived)
-        legs = sums.numel()
+        sums, ended = self.legs(delta, counted, nxt[AGENT_SERVICE_START][..., 0])
+        legs, nan = sums.numel(), float("nan")
         return {
             "lyapunov_transitions": float(n),
-            "lyapunov_decrease_holds": (n - violations) / n if n else float("nan"),
+            "lyapunov_decrease_holds": (n - violations) / n if n else nan,
             "lyapunov_violation_upper95": clopper_pearson_upper(violations, n),
-            "lyapunov_delta_mean": delta[counted].double().mean().item() if n else float("nan"),
-            "lyapunov_change_std": change.std().item() if n > 1 else float("nan"),
-            "lyapunov_margin_mean": margin.mean().item() if n else float("nan"),
+            "lyapunov_delta_mean": counted_delta.mean().item() if n else nan,
+            "lyapunov_change_std": (counted_delta - margin).std().item() if n > 1 else nan,
+            "lyapunov_margin_mean": margin.mean().item() if n else nan,
             "lyapunov_legs": float(legs),
-            "lyapunov_leg_decrease_holds": (sums <= 0).double().mean().item()
-            if legs
-            else float("nan"),
-            "lyapunov_legs_arrived": ended.double().mean().item() if legs else float("nan"),
+            "lyapunov_leg_decrease_holds": (sums <= 0).double().mean().item() if legs else nan,
+            "lyapunov_legs_arrived": ended.double().mean().item() if legs else nan,
         }
